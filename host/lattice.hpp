@@ -1,0 +1,54 @@
+// The fine lattice shared by every stage (DESIGN §5, paper eq. 4-6 made sparse).
+//
+// Lattice points have integer coordinates relative to a grid origin that lies two coarse cells
+// below the particles' bounding box. A coarse cell spans `coarse_steps` lattice steps per axis;
+// a level-3 cell subdivides it with stride 1, a level-2 cell with stride 2 (paper Fig. 2).
+// Keys pack 20 bits per axis (x lowest) into 60 bits: injective, never equal to kEmptyKey, and
+// free for vertex keys to carry an axis in the two bits above. Must match kernels/hash_table.cl.
+#pragma once
+
+#include <cstdint>
+
+#include <glm/glm.hpp>
+
+namespace trilevel::lattice {
+
+constexpr int kAxisBits = 20;
+constexpr std::int32_t kMaxCoord = (1 << kAxisBits) - 1;  ///< largest coordinate on any axis
+constexpr std::uint64_t kEmptyKey = ~std::uint64_t{0};     ///< an unused hash slot
+
+inline std::uint64_t pack(std::int32_t x, std::int32_t y, std::int32_t z) {
+    return std::uint64_t(std::uint32_t(x)) | (std::uint64_t(std::uint32_t(y)) << kAxisBits) |
+           (std::uint64_t(std::uint32_t(z)) << (2 * kAxisBits));
+}
+inline std::uint64_t pack(glm::ivec3 p) { return pack(p.x, p.y, p.z); }
+
+inline glm::ivec3 unpack(std::uint64_t key) {
+    constexpr std::uint64_t m = (std::uint64_t{1} << kAxisBits) - 1;
+    return {int(key & m), int((key >> kAxisBits) & m), int((key >> (2 * kAxisBits)) & m)};
+}
+
+inline bool in_range(glm::ivec3 p) {
+    return p.x >= 0 && p.y >= 0 && p.z >= 0 && p.x <= kMaxCoord && p.y <= kMaxCoord && p.z <= kMaxCoord;
+}
+
+/// Slot hash of a key (the splitmix64 finaliser); identical to trilevel_hash() in hash_table.cl.
+inline std::uint64_t hash(std::uint64_t k) {
+    k ^= k >> 30;
+    k *= 0xbf58476d1ce4e5b9ull;
+    k ^= k >> 27;
+    k *= 0x94d049bb133111ebull;
+    k ^= k >> 31;
+    return k;
+}
+
+/// A vertex lies on the lattice edge from point `p` to p + unit(axis): key = point key | axis << 60.
+inline std::uint64_t edge_key(glm::ivec3 p, int axis) { return pack(p) | (std::uint64_t(axis) << 60); }
+
+/// Value at the midpoint of a level-2 edge or face centre (paper §3.3.1, DESIGN §7). The same
+/// expressions serve transition continuity and the level-2 vertex rule, so both sides of a
+/// transition face compute bit-identical values.
+inline float edge_midpoint_value(float a, float b) { return 0.5f * (a + b); }
+inline float face_centre_value(float a, float b, float c, float d) { return 0.25f * ((a + b) + (c + d)); }
+
+}  // namespace trilevel::lattice

@@ -1,0 +1,44 @@
+// Particle readers, mesh writers and the scene generator of trilevel.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "trilevel/trilevel.hpp"
+
+namespace trilevel {
+
+/// Particle positions read from a file, x, y, z per particle, in file order.
+struct ParticleSet {
+    std::vector<float> positions;
+    std::size_t size() const { return positions.size() / 3; }
+};
+
+/// Reads particles by extension: .vtk (legacy, ASCII/BINARY), .vtu, .bgeo (gzip'd or not), .ply, .xyz
+/// (little-endian float32 triplets). Throws Error naming the file and what is wrong.
+ParticleSet read_particles(const std::string& path);
+
+/// Writes particles by extension: .xyz, .ply (binary), .vtk (legacy binary). Atomic (temp + rename).
+void write_particles(const std::string& path, const ParticleSet& particles);
+
+struct MeshWriteOptions {
+    bool vertex_level = true;   ///< PLY: a `level` vertex property (2 or 3)
+    bool color_levels = false;  ///< PLY: vertex colours, green = level 2, blue = level 3
+};
+
+/// Writes a mesh by extension: .ply (binary little-endian), .obj, .vtk (legacy binary POLYDATA).
+/// Written to a temporary file in the target directory and renamed; never leaves a partial file.
+void write_mesh(const std::string& path, const Mesh& mesh, const MeshWriteOptions& options = {});
+
+/// Reads a mesh written by write_mesh (.ply binary/ascii, .obj, .vtk); used by tests and tools.
+Mesh read_mesh(const std::string& path);
+
+/// Names accepted by generate_scene.
+std::vector<std::string> scene_names();
+
+/// Generates a particle scene on a jittered lattice of spacing 2*radius, deterministic for a seed:
+/// "block", "sphere", "dam-break", "pool-and-drop". Throws Error for an unknown name.
+ParticleSet generate_scene(const std::string& name, float radius, std::uint64_t seed = 1);
+
+}  // namespace trilevel

@@ -1,0 +1,126 @@
+// trilevel: adaptive surface reconstruction of SPH particle sets on 3-level uniform grids
+// (Akinci et al., WSCG 2013), parallel on OpenCL, with a sparse coarse grid.
+//
+// Typical use from a simulator:
+//   trilevel::Reconstructor rec;                       // picks and prepares an OpenCL device once
+//   trilevel::Params p; p.particle_radius = 0.025f;
+//   trilevel::Mesh m = rec.reconstruct(xyz, n, p);      // every frame; buffers and kernels are reused
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace trilevel {
+
+/// Every failure the library reports: a one-line message naming the problem.
+class Error : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+enum class Mode {
+    Adaptive,  ///< flat coarse cells meshed with cells of 2r, curved/splashing ones with cells of r
+    Uniform,   ///< every surface cell meshed with cells of `Params::cell` (the paper's baselines)
+};
+
+/// Reconstruction parameters. Lengths are in multiples of the particle radius r unless stated.
+struct Params {
+    float particle_radius = 0.0f;      ///< r, in world units (half the rest spacing); required, > 0
+    float kernel_radius = 4.0f;        ///< R, support of the SPH kernels, in r (DESIGN §2)
+    Mode mode = Mode::Adaptive;
+    float cell = 1.0f;                 ///< uniform mode: marching-cubes cell size in r; 4/cell must be an integer
+    float curvature_threshold = 0.0f;  ///< adaptive mode: mean cell curvature (paper eq. 3) at which a
+                                       ///< coarse cell becomes level 3; <= 0 picks the calibrated default
+    std::uint64_t memory_limit_bytes = 0;  ///< budget for the largest allocations; 0: device and host limits
+};
+
+/// Calibrated default of Params::curvature_threshold (see README, "Choosing the threshold").
+float default_curvature_threshold();
+
+/// Kind of a triangle in an adaptive mesh (paper Table 1: level-2, level-3 and patch triangles).
+enum class TriangleKind : std::uint8_t { Level2 = 0, Level3 = 1, Patch = 2 };
+
+/// An indexed triangle mesh, closed and consistently oriented (counter-clockwise seen from outside).
+struct Mesh {
+    std::vector<float> positions;            ///< x, y, z per vertex (world units)
+    std::vector<std::uint32_t> triangles;    ///< three vertex indices per triangle
+    std::vector<std::uint8_t> vertex_level;  ///< 2 or 3: finest lattice level the vertex lies on
+    std::vector<TriangleKind> triangle_kind; ///< one per triangle
+
+    std::size_t vertex_count() const { return positions.size() / 3; }
+    std::size_t triangle_count() const { return triangles.size() / 3; }
+};
+
+/// What one reconstruction did and cost (DESIGN §10).
+struct Stats {
+    std::size_t particles = 0;
+    std::size_t surface_particles = 0;
+    std::size_t splash_particles = 0;
+    std::size_t surface_cells = 0;          ///< coarse cells after band closure
+    std::size_t surface_cells_level2 = 0;
+    std::size_t surface_cells_level3 = 0;
+    std::size_t splash_cells = 0;
+    std::size_t band_closure_cells = 0;     ///< coarse cells added by band closure (DESIGN §7)
+    std::size_t fine_points = 0;            ///< unique fine lattice points evaluated
+    std::size_t fine_points_level2 = 0;     ///< of those, points on the level-2 lattice
+    std::size_t fine_points_level3 = 0;     ///< of those, points only on the level-3 lattice
+    std::size_t vertices = 0;
+    std::size_t triangles = 0;
+    std::size_t triangles_level2 = 0;
+    std::size_t triangles_level3 = 0;
+    std::size_t triangles_patch = 0;
+    std::vector<std::pair<std::string, double>> time_ms;  ///< per stage in pipeline order, then "total"
+    std::vector<std::pair<std::string, double>> kernel_ms; ///< OpenCL profiling time per kernel
+    std::uint64_t peak_memory_bytes = 0;   ///< process peak resident memory after the run
+    std::uint64_t device_memory_bytes = 0; ///< largest total of device buffers held at once
+    bool closed = false;                   ///< every edge used twice in opposite directions
+    std::string device;                    ///< the OpenCL device that ran the kernels
+};
+
+/// Writes the statistics as a JSON object (keys as in README "Statistics").
+std::string stats_to_json(const Stats& stats, const Params& params);
+
+/// An OpenCL device as listed by `trilevel devices`.
+struct DeviceInfo {
+    int index = 0;            ///< global index over all platforms, as accepted by --device
+    std::string platform;
+    std::string name;
+    std::string type;         ///< "GPU", "CPU", "ACCELERATOR", "OTHER"
+    unsigned compute_units = 0;
+    std::uint64_t global_memory = 0;
+    std::uint64_t max_allocation = 0;
+    bool int64_atomics = false; ///< cl_khr_int64_base_atomics, required
+};
+
+/// Lists every OpenCL device of every platform. Throws Error when no platform exists.
+std::vector<DeviceInfo> list_devices();
+
+/// Reconstructs surfaces on one OpenCL device; keeps compiled kernels and buffers across calls.
+/// Not thread-safe: use one Reconstructor per thread.
+class Reconstructor {
+public:
+    /// device < 0: the TRILEVEL_DEVICE environment variable, else the first GPU, else the first CPU.
+    explicit Reconstructor(int device = -1);
+    ~Reconstructor();
+    Reconstructor(Reconstructor&&) noexcept;
+    Reconstructor& operator=(Reconstructor&&) noexcept;
+
+    /// `xyz` holds `count` particles as x, y, z floats. Throws Error on bad input or resources.
+    Mesh reconstruct(const float* xyz, std::size_t count, const Params& params, Stats* stats = nullptr);
+
+    const DeviceInfo& device() const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+/// Checks a mesh by index topology: every directed edge appears once and its reverse once.
+bool is_closed_and_oriented(const Mesh& mesh);
+
+}  // namespace trilevel

@@ -1,0 +1,1 @@
+// color_field.cl (to be written)

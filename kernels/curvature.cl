@@ -1,0 +1,1 @@
+// curvature.cl (to be written)

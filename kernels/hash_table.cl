@@ -1,0 +1,1 @@
+// hash_table.cl (to be written)

@@ -1,0 +1,1 @@
+// particle_binning.cl (to be written)

@@ -1,0 +1,1 @@
+// refine_points.cl (to be written)

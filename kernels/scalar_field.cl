@@ -1,0 +1,1 @@
+// scalar_field.cl (to be written)

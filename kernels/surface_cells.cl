@@ -1,0 +1,1 @@
+// surface_cells.cl (to be written)

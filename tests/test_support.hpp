@@ -1,0 +1,39 @@
+// Helpers shared by the tests: where ../shared is, temporary files.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include <unistd.h>
+
+#include <catch2/catch.hpp>
+
+namespace trilevel::test {
+
+/// ../shared/data beside the checkout, or empty when absent (tests then SKIP with a message).
+inline std::filesystem::path shared_data_dir() {
+    std::filesystem::path p = std::filesystem::path(TRILEVEL_SHARED_DIR) / "data";
+    return std::filesystem::is_directory(p) ? p : std::filesystem::path{};
+}
+
+#define TRILEVEL_REQUIRE_SHARED_DATA(dir)                                                   \
+    const auto dir = ::trilevel::test::shared_data_dir();                                   \
+    if (dir.empty()) {                                                                      \
+        WARN("SKIPPED: ../shared/data is absent beside the checkout; real-frame test skipped"); \
+        return;                                                                             \
+    }
+
+/// A fresh temporary directory, removed at scope exit.
+struct TempDir {
+    std::filesystem::path path;
+    TempDir() {
+        path = std::filesystem::temp_directory_path() /
+               ("trilevel-test-" + std::to_string(::getpid()) + "-" + std::to_string(counter()++));
+        std::filesystem::create_directories(path);
+    }
+    ~TempDir() { std::error_code ec; std::filesystem::remove_all(path, ec); }
+    std::string file(const std::string& name) const { return (path / name).string(); }
+    static int& counter() { static int c = 0; return c; }
+};
+
+}  // namespace trilevel::test
