@@ -11,5 +11,4 @@ const DeviceInfo& Reconstructor::device() const { return impl_->info; }
 std::vector<DeviceInfo> list_devices() { return {}; }
 float default_curvature_threshold() { return 1.0f; }
 std::string stats_to_json(const Stats&, const Params&) { return "{}"; }
-bool is_closed_and_oriented(const Mesh&) { return false; }
 }
