@@ -1,0 +1,27 @@
+// Constants and formulas shared by the OpenCL stages and their C++ references (DESIGN §3).
+// The kernels receive these values as build options; change them here only.
+#pragma once
+
+namespace trilevel::constants {
+
+/// Surface particle test (DESIGN §3.1): |n_i| * R > kSurfaceGradient, with n_i the colour-field
+/// gradient with poly6 weights and particle volume V = (2r)^3. Calibrated on jittered lattice
+/// blocks (tests/test_reference_stages.cpp): every particle within one spacing of a face is surface,
+/// none deeper than R is.
+constexpr float kSurfaceGradient = 0.5f;
+
+/// Splash particle: fewer than this many neighbours within R, itself excluded (paper §3).
+constexpr int kSplashNeighbours = 3;
+
+/// Surface cells: coarse cells overlapping the box x_i ± kSurfaceBoxHalf * r around each surface or
+/// splash particle (paper §3, after Akinci et al. 2012: an AABB of 4r around each surface particle).
+constexpr float kSurfaceBoxHalf = 2.0f;
+
+/// Solenthaler et al. 2007 eigenvalue thresholds (DESIGN §3.3).
+constexpr float kEvLow = 0.4f;
+constexpr float kEvHigh = 3.5f;
+
+/// Coarse cell edge in particle radii (DESIGN §2).
+constexpr float kCoarseCell = 4.0f;
+
+}  // namespace trilevel::constants
