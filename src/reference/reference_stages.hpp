@@ -1,0 +1,131 @@
+// Plain C++ reference implementations of the OpenCL stages 2, 3-4 and 6 (DESIGN §2, §8).
+// The differential tests compare every kernel against these functions on the same input.
+// They follow DESIGN §3 literally, accumulate in double and favour clarity over speed
+// (a simple hash grid of cell R for the neighbour search, TBB over particles / points).
+//
+// Conventions shared with the kernels (all lengths in world units):
+//   r = particle radius, R = support radius (= Params::kernel_radius * r), V = (2r)^3.
+//   A neighbour of a point x is a particle j with |x - x_j| < R (a particle is not its own neighbour).
+#pragma once
+
+#include <cstdint>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "coarse_cells.hpp"
+
+namespace trilevel::reference {
+
+/// Particles binned into a hash grid of cell size R: the neighbour search of every reference stage.
+/// Within one cell particles keep ascending index order, so results are deterministic.
+class ParticleGrid {
+public:
+    ParticleGrid(const std::vector<glm::vec3>& x, float R);
+
+    /// Calls f(j, x_j, d2) for every particle j with |p - x_j|^2 = d2 < R^2 (d2 in double).
+    template <class F>
+    void for_each_neighbour(glm::vec3 p, F&& f) const {
+        const glm::ivec3 c = cell_of(p);
+        for (int dz = -1; dz <= 1; ++dz)
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx) {
+                    auto it = ranges_.find(key(c + glm::ivec3(dx, dy, dz)));
+                    if (it == ranges_.end()) continue;
+                    for (std::uint32_t s = it->second.first; s < it->second.second; ++s) {
+                        const glm::vec3 d = p - sorted_[s];
+                        const double d2 = double(d.x) * d.x + double(d.y) * d.y + double(d.z) * d.z;
+                        if (d2 < R2_) f(order_[s], sorted_[s], d2);
+                    }
+                }
+    }
+
+    float radius() const { return R_; }
+
+private:
+    glm::ivec3 cell_of(glm::vec3 p) const;
+    static std::uint64_t key(glm::ivec3 c);
+
+    float R_;
+    double R2_;
+    glm::vec3 lo_;
+    std::vector<int> order_;            ///< particle ids sorted by (cell key, id)
+    std::vector<glm::vec3> sorted_;     ///< positions in that order
+    std::unordered_map<std::uint64_t, std::pair<std::uint32_t, std::uint32_t>> ranges_;
+};
+
+// ---- Stage 2: colour field, surface and splash particles (DESIGN §3.1) -------------------------
+
+/// Poly6 kernel W(d) = 315 / (64 pi R^9) (R^2 - d^2)^3 for d < R, from d^2.
+double poly6(double d2, double R);
+/// Poly6 gradient factor g with grad W(x_ij) = g * x_ij, g = -945 / (32 pi R^9) (R^2 - d^2)^2.
+double poly6_gradient_factor(double d2, double R);
+
+struct ParticleFlags {
+    std::vector<float> color;          ///< c_i = sum_j V W(x_ij), the particle itself included
+    std::vector<glm::vec3> gradient;   ///< n_i = sum_{j != i} V grad W(x_ij)
+    std::vector<int> neighbours;       ///< neighbour count, the particle itself excluded
+    std::vector<std::uint8_t> surface; ///< |n_i| R > kSurfaceGradient, or splash
+    std::vector<std::uint8_t> splash;  ///< neighbours < kSplashNeighbours
+};
+
+ParticleFlags color_field(const std::vector<glm::vec3>& x, float r, float R);
+
+/// Outward unit normal -n / |n| (DESIGN §3.1); the zero vector when n == 0.
+glm::dvec3 outward_normal(glm::vec3 gradient);
+
+// ---- Stage 4a: curvature per particle (paper eq. 1-2, DESIGN §3.2) -----------------------------
+
+/// kappa_i = sum over surface j != i with d < h = R of (1 - n_i . n_j)(1 - d / h) for surface
+/// particles i (splash ones included, their normal may be zero); 0 for the others.
+std::vector<float> curvature(const std::vector<glm::vec3>& x, const ParticleFlags& flags, float R);
+
+// ---- Stages 3 + 4b: coarse surface cells, splash cells, levels (paper §3, §3.1, DESIGN §3.2) ---
+
+struct SurfaceCells {
+    std::vector<CoarseCell> cells;      ///< sorted by lattice::pack(coord)
+    std::vector<float> curvature;       ///< per cell: paper eq. 3, or the 26-neighbour fallback
+    std::vector<std::uint8_t> splash;   ///< per cell: inside x_i +- R of a splash particle
+};
+
+/// Coarse cells of edge kCoarseCell * r, coord = floor((x - origin) / edge), which must be >= 0.
+/// Surface cells: every cell overlapping the closed box x_i +- kSurfaceBoxHalf * r of a surface
+/// (splash included) particle i, i.e. per axis floor((x - origin - b) / edge) ..
+/// floor((x - origin + b) / edge). A surface cell is a splash cell when it also overlaps
+/// x_i +- R of a splash particle (same formula with b = R); splash boxes add no cells.
+/// forced_level: 0 = adaptive (level 3 if splash or curvature >= threshold, else 2); 2 or 3 =
+/// uniform mode, every cell gets that level.
+SurfaceCells surface_cells(const std::vector<glm::vec3>& x, const ParticleFlags& flags,
+                           const std::vector<float>& kappa, glm::vec3 origin, float r, float R,
+                           float threshold, int forced_level = 0);
+
+// ---- Stage 6: scalar field (Solenthaler et al. 2007, DESIGN §3.3) ------------------------------
+
+/// Largest real part among the eigenvalues of a real 3x3 matrix (J need not be symmetric).
+/// Method, independent of the kernel's closed-form cubic: Householder reduction to upper
+/// Hessenberg form, then Francis double-shift QR steps until a subdiagonal entry vanishes; the
+/// deflated 1x1 block and the 2x2 block's quadratic give the spectrum.
+double largest_real_eigenvalue(const double J[3][3]);
+
+/// Every intermediate of the scalar field at one point, for diagnostics and kernel comparisons.
+struct FieldSample {
+    double phi = 0.0;        ///< |x - xbar| - r f; +R when K == 0
+    double K = 0.0;          ///< sum_j k_j
+    glm::dvec3 xbar{0.0};    ///< weighted mean position
+    double ev_max = 0.0;     ///< largest real eigenvalue part of J = grad xbar
+    double f = 0.0;          ///< radius factor from ev_max
+    int neighbours = 0;
+};
+
+/// f(EVmax): 1 below kEvLow, 0 above kEvHigh, gamma^3 - 3 gamma^2 + 3 gamma in between.
+double radius_factor(double ev_max);
+
+FieldSample scalar_field_sample(glm::vec3 x, const ParticleGrid& grid, float r);
+float scalar_field(glm::vec3 x, const ParticleGrid& grid, float r);
+/// The field at every point (TBB over points); the grid is built with cell R.
+std::vector<float> scalar_field(const std::vector<glm::vec3>& points, const std::vector<glm::vec3>& particles,
+                                float r, float R);
+
+}  // namespace trilevel::reference
