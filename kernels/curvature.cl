@@ -1,1 +1,76 @@
-// curvature.cl (to be written)
+// Stage 4 (paper eq. 1-3, DESIGN §3.2): curvature per surface particle, its mean per coarse cell
+// and the level of each cell. Cell sums use 64-bit fixed-point atomics so the mean does not depend
+// on the order in which work-items add (DESIGN §6).
+
+#define KAPPA_FIXED 1048576.0f  /* 2^20 */
+
+// Paper eq. 1-2: kappa_i = sum_j (1 - n_i . n_j) W(x_ij, h), W = max(0, 1 - |x_ij|/h), h = R.
+__kernel void particle_curvature(__global const float4* sorted, __global const uchar* flags, uint n,
+                                 float inv_cell, __global const ulong* bin_keys, ulong bin_mask,
+                                 __global const uint2* range, __global const float4* gradient, float R,
+                                 __global float* kappa) {
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    if ((flags[i] & FLAG_SURFACE) == 0) { kappa[i] = 0.0f; return; }
+    float4 xi = sorted[i];
+    float3 gi = gradient[i].xyz;
+    float3 ni = length(gi) > 0.0f ? -normalize(gi) : (float3)(0.0f);
+    float k = 0.0f;
+    FOR_EACH_NEIGHBOUR_BIN(xi, inv_cell, bin_keys, bin_mask, range, sorted, {
+        if (j != i && (flags[j] & FLAG_SURFACE)) {
+            float d = length(xi.xyz - pj.xyz);
+            if (d < R) {
+                float3 gj = gradient[j].xyz;
+                float3 nj = length(gj) > 0.0f ? -normalize(gj) : (float3)(0.0f);
+                k += (1.0f - dot(ni, nj)) * (1.0f - d / R);
+            }
+        }
+    })
+    kappa[i] = k;
+}
+
+// Paper eq. 3: sums and counts of kappa over the surface particles inside each coarse cell, and
+// the largest kappa (as float bits: non-negative floats order like their bits).
+__kernel void accumulate_cell_curvature(__global const float4* sorted, __global const uchar* flags, uint n,
+                                        float inv_coarse, __global const float* kappa,
+                                        __global const ulong* cell_keys, ulong cell_mask,
+                                        volatile __global ulong* kappa_sum, volatile __global uint* kappa_count,
+                                        volatile __global uint* kappa_max) {
+    uint i = get_global_id(0);
+    if (i >= n || (flags[i] & FLAG_SURFACE) == 0) return;
+    long s = hash_find(cell_keys, cell_mask, pack_key(coarse_of(sorted[i].xyz, inv_coarse)));
+    if (s < 0) return;
+    atom_add(&kappa_sum[s], (ulong)(kappa[i] * KAPPA_FIXED + 0.5f));
+    atomic_inc(&kappa_count[s]);
+    atomic_max(&kappa_max[s], as_uint(kappa[i]));
+}
+
+// Level per coarse cell: 3 if splash or mean curvature >= threshold, else 2. A cell without
+// surface particles takes the largest curvature found in its 26 neighbours (DESIGN §3.2).
+__kernel void cell_levels(__global const ulong* cell_keys, ulong cell_mask, __global const ulong* kappa_sum,
+                          __global const uint* kappa_count, __global const uint* kappa_max,
+                          __global const uint* cell_flags, float threshold, __global uchar* level,
+                          __global float* cell_kappa) {
+    ulong s = get_global_id(0);
+    if (s > cell_mask) return;
+    ulong key = cell_keys[s];
+    if (key == EMPTY_KEY) return;
+    float k = 0.0f;
+    if (kappa_count[s] > 0) {
+        k = ((float)kappa_sum[s] / KAPPA_FIXED) / (float)kappa_count[s];
+    } else {
+        int3 c = unpack_key(key);
+        uint m = 0;
+        for (int dz = -1; dz <= 1; ++dz)
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx) {
+                    int3 q = c + (int3)(dx, dy, dz);
+                    if (!key_in_range(q)) continue;
+                    long t = hash_find(cell_keys, cell_mask, pack_key(q));
+                    if (t >= 0) m = max(m, kappa_max[t]);
+                }
+        k = as_float(m);
+    }
+    cell_kappa[s] = k;
+    level[s] = ((cell_flags[s] & CELL_SPLASH) || k >= threshold) ? 3 : 2;
+}

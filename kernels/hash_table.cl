@@ -1,1 +1,99 @@
-// hash_table.cl (to be written)
+// Lock-free open-addressing hash of 64-bit keys (DESIGN §5): power-of-two capacity, linear
+// probing, insert-only, empty slot = all ones. Keys are lattice points or cells packed 20 bits
+// per axis (host/lattice.hpp). A probe longer than the capacity reports overflow (-1); the host
+// then grows the table and reruns the stage, so nothing is silently dropped. No work-item ever
+// waits for another (PoCL runs a work-group as a loop).
+#pragma OPENCL EXTENSION cl_khr_int64_base_atomics : enable
+
+#define EMPTY_KEY 0xffffffffffffffffUL
+#define AXIS_BITS 20
+#define AXIS_MASK 0xfffffUL
+
+// splitmix64 finaliser, identical to trilevel::lattice::hash().
+inline ulong trilevel_hash(ulong k) {
+    k ^= k >> 30;
+    k *= 0xbf58476d1ce4e5b9UL;
+    k ^= k >> 27;
+    k *= 0x94d049bb133111ebUL;
+    k ^= k >> 31;
+    return k;
+}
+
+inline ulong pack_key(int3 p) {
+    return (ulong)(uint)p.x | ((ulong)(uint)p.y << AXIS_BITS) | ((ulong)(uint)p.z << (2 * AXIS_BITS));
+}
+
+inline int3 unpack_key(ulong k) {
+    return (int3)((int)(k & AXIS_MASK), (int)((k >> AXIS_BITS) & AXIS_MASK),
+                  (int)((k >> (2 * AXIS_BITS)) & AXIS_MASK));
+}
+
+inline int key_in_range(int3 p) {
+    return p.x >= 0 && p.y >= 0 && p.z >= 0 && p.x <= (int)AXIS_MASK && p.y <= (int)AXIS_MASK &&
+           p.z <= (int)AXIS_MASK;
+}
+
+// Returns the slot holding `key` after inserting it, or -1 when the table is full.
+inline long hash_insert(volatile __global ulong* keys, ulong mask, ulong key) {
+    ulong s = trilevel_hash(key) & mask;
+    for (ulong i = 0; i <= mask; ++i) {
+        ulong cur = keys[s];
+        if (cur == key) return (long)s;
+        if (cur == EMPTY_KEY) {
+            ulong prev = atom_cmpxchg(&keys[s], EMPTY_KEY, key);
+            if (prev == EMPTY_KEY || prev == key) return (long)s;
+        }
+        s = (s + 1) & mask;
+    }
+    return -1;
+}
+
+// Returns the slot of `key`, or -1 when absent.
+inline long hash_find(const __global ulong* keys, ulong mask, ulong key) {
+    ulong s = trilevel_hash(key) & mask;
+    for (ulong i = 0; i <= mask; ++i) {
+        ulong cur = keys[s];
+        if (cur == key) return (long)s;
+        if (cur == EMPTY_KEY) return -1;
+        s = (s + 1) & mask;
+    }
+    return -1;
+}
+
+// Inserts and keeps the table's counters: stats[0] = overflow flag, stats[1] = keys newly inserted
+// (the host grows the table when it passes half the capacity).
+inline long hash_insert_counted(volatile __global ulong* keys, ulong mask, ulong key, volatile __global int* stats) {
+    ulong s = trilevel_hash(key) & mask;
+    for (ulong i = 0; i <= mask; ++i) {
+        ulong cur = keys[s];
+        if (cur == key) return (long)s;
+        if (cur == EMPTY_KEY) {
+            ulong prev = atom_cmpxchg(&keys[s], EMPTY_KEY, key);
+            if (prev == EMPTY_KEY) { atomic_inc(&stats[1]); return (long)s; }
+            if (prev == key) return (long)s;
+        }
+        s = (s + 1) & mask;
+    }
+    atomic_or(&stats[0], 1);
+    return -1;
+}
+
+// Test and maintenance kernel: inserts `n` keys, recording each key's slot.
+__kernel void hash_insert_keys(__global const ulong* in, uint n, volatile __global ulong* keys, ulong mask,
+                               __global long* slot_of, volatile __global int* stats) {
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    slot_of[i] = hash_insert_counted(keys, mask, in[i], stats);
+}
+
+// Moves every key (and its value) of an old table into a larger one.
+__kernel void hash_rehash(__global const ulong* old_keys, __global const float* old_values, ulong old_capacity,
+                          volatile __global ulong* keys, __global float* values, ulong mask,
+                          volatile __global int* stats) {
+    ulong i = get_global_id(0);
+    if (i >= old_capacity) return;
+    ulong k = old_keys[i];
+    if (k == EMPTY_KEY) return;
+    long s = hash_insert_counted(keys, mask, k, stats);
+    if (s >= 0) values[s] = old_values[i];
+}

@@ -1,1 +1,27 @@
-// refine_points.cl (to be written)
+// Stage 5 (paper §3.2, eq. 4-6 made sparse; DESIGN §5): every coarse surface cell inserts its fine
+// lattice points into the lock-free hash: (n/2+1)^3 for level 2 (27 when n = 4), (n+1)^3 for
+// level 3 (125). A point shared by several cells is stored once; its value slot starts as NaN,
+// which marks it as not yet evaluated.
+
+// cells: x, y, z = coarse coordinates, w = level. One work-item per (cell, local point).
+__kernel void refine_points(__global const int4* cells, uint cell_count, int coarse_steps,
+                            volatile __global ulong* keys, ulong mask, volatile __global int* stats) {
+    uint gid = get_global_id(0);
+    int side = coarse_steps + 1;
+    uint per_cell = (uint)(side * side * side);
+    if (gid >= cell_count * per_cell) return;
+    int4 c = cells[gid / per_cell];
+    int l = (int)(gid % per_cell);
+    int3 o = (int3)(l % side, (l / side) % side, l / (side * side));
+    if (c.w == 2 && ((o.x | o.y | o.z) & 1)) return;  // level 2 uses every second point
+    int3 p = c.xyz * coarse_steps + o;
+    hash_insert_counted(keys, mask, pack_key(p), stats);
+}
+
+// Lists the slots whose value is still NaN (inserted, not evaluated).
+__kernel void collect_pending(__global const ulong* keys, __global const float* values, ulong capacity,
+                              volatile __global uint* count, __global uint* pending) {
+    ulong s = get_global_id(0);
+    if (s >= capacity) return;
+    if (keys[s] != EMPTY_KEY && isnan(values[s])) pending[atomic_inc(count)] = (uint)s;
+}

@@ -1,1 +1,39 @@
-// surface_cells.cl (to be written)
+// Stage 3 (paper §3, DESIGN §2): the sparse set of coarse surface cells. Every surface or splash
+// particle marks the coarse cells overlapping the box x ± half (the paper's AABB of 4r around a
+// surface particle); cells within R of a splash particle become splash cells (forced level 3).
+// Coarse cells are keys in a hash, never a dense box (DESIGN §4).
+
+#define CELL_SPLASH 1
+
+inline int3 coarse_of(float3 p, float inv_coarse) {
+    return convert_int3_rtn(p * inv_coarse);
+}
+
+__kernel void mark_surface_cells(__global const float4* sorted, __global const uchar* flags, uint n,
+                                 float inv_coarse, float half_box,
+                                 volatile __global ulong* cell_keys, ulong cell_mask,
+                                 volatile __global int* stats) {
+    uint i = get_global_id(0);
+    if (i >= n || flags[i] == 0) return;
+    int3 lo = coarse_of(sorted[i].xyz - half_box, inv_coarse);
+    int3 hi = coarse_of(sorted[i].xyz + half_box, inv_coarse);
+    for (int z = lo.z; z <= hi.z; ++z)
+        for (int y = lo.y; y <= hi.y; ++y)
+            for (int x = lo.x; x <= hi.x; ++x)
+                hash_insert_counted(cell_keys, cell_mask, pack_key((int3)(x, y, z)), stats);
+}
+
+__kernel void mark_splash_cells(__global const float4* sorted, __global const uchar* flags, uint n,
+                                float inv_coarse, float R, __global const ulong* cell_keys,
+                                ulong cell_mask, volatile __global uint* cell_flags) {
+    uint i = get_global_id(0);
+    if (i >= n || (flags[i] & FLAG_SPLASH) == 0) return;
+    int3 lo = coarse_of(sorted[i].xyz - R, inv_coarse);
+    int3 hi = coarse_of(sorted[i].xyz + R, inv_coarse);
+    for (int z = lo.z; z <= hi.z; ++z)
+        for (int y = lo.y; y <= hi.y; ++y)
+            for (int x = lo.x; x <= hi.x; ++x) {
+                long s = hash_find(cell_keys, cell_mask, pack_key((int3)(x, y, z)));
+                if (s >= 0) atomic_or(&cell_flags[s], CELL_SPLASH);
+            }
+}

@@ -1,14 +1,232 @@
-// placeholder until the pipeline lands
+// Pipeline orchestration (DESIGN §2): device stages 1-6, then band closure, transition continuity,
+// triangulation and crack closing on the host. Each stage is timed on its own.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include <sys/resource.h>
+
+#include "band_closure.hpp"
+#include "device_stages.hpp"
+#include "opencl_runtime.hpp"
+#include "stage_constants.hpp"
+#include "surface_mesher.hpp"
+#include "transition_continuity.hpp"
 #include "trilevel/trilevel.hpp"
+
 namespace trilevel {
-struct Reconstructor::Impl { DeviceInfo info; };
-Reconstructor::Reconstructor(int) : impl_(std::make_unique<Impl>()) {}
+
+float default_curvature_threshold() { return 1.0f; }
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+/// Appends the wall time of each stage to Stats::time_ms.
+class StageTimer {
+public:
+    explicit StageTimer(Stats& s) : stats_(s), start_(Clock::now()), last_(start_) {}
+    void stage(const char* name) {
+        auto now = Clock::now();
+        stats_.time_ms.emplace_back(name, std::chrono::duration<double, std::milli>(now - last_).count());
+        last_ = now;
+    }
+    void restart() { last_ = Clock::now(); }
+
+private:
+    Stats& stats_;
+    Clock::time_point start_, last_;
+};
+
+void require_positive(float v, const char* name, const char* why) {
+    if (!std::isfinite(v) || v <= 0.0f)
+        throw Error(std::string(name) + " must be finite and > 0 (" + why + "), got " + std::to_string(v));
+}
+
+void validate(const Params& p) {
+    require_positive(p.particle_radius, "particle radius", "half the particle spacing, world units");
+    require_positive(p.kernel_radius, "kernel radius", "in particle radii");
+    if (p.kernel_radius < 1.0f || p.kernel_radius > 16.0f)
+        throw Error("kernel radius must lie in [1, 16] particle radii, got " + std::to_string(p.kernel_radius));
+    if (p.mode == Mode::Uniform) {
+        require_positive(p.cell, "cell size", "in particle radii");
+        float steps = constants::kCoarseCell / p.cell;
+        if (std::fabs(steps - std::round(steps)) > 1e-4f || std::round(steps) < 1.0f || std::round(steps) > 64.0f)
+            throw Error("cell size " + std::to_string(p.cell) + " must divide the coarse cell of 4 radii (e.g. 0.5, 1, 2, 4)");
+    }
+    if (p.mode == Mode::Adaptive && p.curvature_threshold != 0.0f && !(std::isfinite(p.curvature_threshold) && p.curvature_threshold > 0.0f))
+        throw Error("curvature threshold must be finite and > 0, got " + std::to_string(p.curvature_threshold));
+}
+
+/// Lattice and coarse grid of a frame. Adaptive and uniform --cell 2 use lattice step r with
+/// coarse cells of 4 steps (levels 3 and 2); other uniform cells use step = cell.
+struct Grid {
+    LatticeFrame frame;
+    glm::dvec3 origin;  ///< double-precision lattice origin; particles are uploaded relative to it
+    float coarse_edge = 0.0f;
+    int forced_level = 0;  ///< 0: adaptive
+};
+
+Grid make_grid(const Params& p, const float* xyz, std::size_t n) {
+    Grid g;
+    const double r = p.particle_radius;
+    g.coarse_edge = float(constants::kCoarseCell * r);
+    if (p.mode == Mode::Uniform) {
+        int steps = int(std::lround(constants::kCoarseCell / p.cell));
+        g.forced_level = (steps == 2) ? 2 : 3;
+        g.frame.coarse_steps = (steps == 2) ? 4 : steps;
+    } else {
+        g.frame.coarse_steps = 4;
+    }
+    g.frame.step = float(constants::kCoarseCell * r / g.frame.coarse_steps);
+    glm::dvec3 lo(std::numeric_limits<double>::max()), hi(std::numeric_limits<double>::lowest());
+    for (std::size_t i = 0; i < n; ++i) {
+        glm::dvec3 x(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
+        if (!std::isfinite(x.x) || !std::isfinite(x.y) || !std::isfinite(x.z))
+            throw Error("particle " + std::to_string(i) + " has a non-finite coordinate");
+        lo = glm::min(lo, x);
+        hi = glm::max(hi, x);
+    }
+    const double edge = g.coarse_edge;
+    // Two coarse cells of margin: the surface lies within R = one coarse cell of the particles.
+    g.origin = (glm::floor(lo / edge) - 2.0) * edge;
+    g.frame.origin = glm::vec3(g.origin);
+    glm::dvec3 extent = (hi - g.origin) / double(g.frame.step) + 3.0 * g.frame.coarse_steps;
+    double worst = std::max({extent.x, extent.y, extent.z});
+    if (worst > lattice::kMaxCoord)
+        throw Error("the particles span " + std::to_string(long(worst)) + " lattice steps on one axis, more than the " +
+                    std::to_string(lattice::kMaxCoord) + " the 20-bit lattice keys hold; use a larger cell or split the domain");
+    return g;
+}
+
+std::vector<glm::vec4> relative_positions(const float* xyz, std::size_t n, glm::dvec3 origin) {
+    std::vector<glm::vec4> out(n);
+    for (std::size_t i = 0; i < n; ++i)
+        out[i] = glm::vec4(glm::vec3(glm::dvec3(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]) - origin), 0.0f);
+    return out;
+}
+
+std::vector<CoarseCell> merge_cells(const std::vector<CoarseCell>& a, const std::vector<CoarseCell>& b) {
+    std::vector<CoarseCell> out;
+    out.reserve(a.size() + b.size());
+    std::merge(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(out),
+               [](const CoarseCell& x, const CoarseCell& y) { return lattice::pack(x.coord) < lattice::pack(y.coord); });
+    return out;
+}
+
+void count_points(const FinePointMap& map, Stats& s) {
+    for (std::uint64_t k : map.keys()) {
+        if (k == lattice::kEmptyKey) continue;
+        glm::ivec3 p = lattice::unpack(k);
+        bool even = ((p.x | p.y | p.z) & 1) == 0;
+        (even ? s.fine_points_level2 : s.fine_points_level3)++;
+    }
+    s.fine_points = s.fine_points_level2 + s.fine_points_level3;
+}
+
+void count_mesh(const Mesh& m, Stats& s) {
+    s.vertices = m.vertex_count();
+    s.triangles = m.triangle_count();
+    s.triangles_level2 = s.triangles_level3 = s.triangles_patch = 0;
+    for (TriangleKind k : m.triangle_kind) {
+        if (k == TriangleKind::Level2) ++s.triangles_level2;
+        else if (k == TriangleKind::Level3) ++s.triangles_level3;
+        else ++s.triangles_patch;
+    }
+}
+
+std::uint64_t peak_rss_bytes() {
+    rusage u{};
+    getrusage(RUSAGE_SELF, &u);
+    return std::uint64_t(u.ru_maxrss) * 1024;
+}
+
+}  // namespace
+
+struct Reconstructor::Impl {
+    explicit Impl(int device) : rt(device) {}
+    OpenCLRuntime rt;
+    Mesh run(const float* xyz, std::size_t n, const Params& p, Stats& s);
+};
+
+Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, Stats& s) {
+    StageTimer timer(s);
+    const Grid g = make_grid(p, xyz, n);
+    const float r = p.particle_radius, R = p.kernel_radius * r;
+    const float threshold = p.curvature_threshold > 0.0f ? p.curvature_threshold : default_curvature_threshold();
+    s.particles = n;
+    s.device = rt.info().name;
+
+    BinnedParticles bins = bin_particles(rt, relative_positions(xyz, n, g.origin), R);
+    timer.stage("binning");
+    ParticleClasses classes = classify_particles(rt, bins, r, R);
+    s.surface_particles = classes.surface;
+    s.splash_particles = classes.splash;
+    timer.stage("surface_particles");
+    SurfaceCells sc = surface_cells(rt, bins, classes, r, R, g.coarse_edge, threshold, g.forced_level);
+    for (std::uint8_t f : sc.splash) s.splash_cells += f;
+    timer.stage("surface_cells");
+
+    // Stages 5-8 until the band is closed (DESIGN §7): refine, evaluate, continuity, look for
+    // faces the surface leaves through, add those neighbours and repeat.
+    std::vector<CoarseCell> cells = sc.cells, fresh = sc.cells;
+    FinePoints points;
+    FinePointMap field;
+    double t_field = 0, t_closure = 0;
+    for (;;) {
+        auto t0 = Clock::now();
+        refine_and_evaluate(rt, points, fresh, g.frame, bins, r, R);
+        field = read_fine_points(rt, points);
+        auto t1 = Clock::now();
+        apply_transition_continuity(cells, g.frame, field);
+        fresh = band_closure_cells(cells, g.frame, field);
+        auto t2 = Clock::now();
+        t_field += std::chrono::duration<double, std::milli>(t1 - t0).count();
+        t_closure += std::chrono::duration<double, std::milli>(t2 - t1).count();
+        if (fresh.empty()) break;
+        s.band_closure_cells += fresh.size();
+        cells = merge_cells(cells, fresh);
+    }
+    s.time_ms.emplace_back("scalar_field", t_field);
+    s.time_ms.emplace_back("band_closure", t_closure);
+    timer.restart();  // the loop recorded its own two entries
+    s.surface_cells = cells.size();
+    for (const auto& c : cells) (c.level == 2 ? s.surface_cells_level2 : s.surface_cells_level3)++;
+    count_points(field, s);
+
+    Mesh mesh = triangulate_cells(cells, g.frame, field);
+    timer.stage("triangulation");
+    count_mesh(mesh, s);
+    s.closed = is_closed_and_oriented(mesh);
+    for (auto& [name, ms] : rt.take_kernel_times()) s.kernel_ms.emplace_back(name, ms);
+    s.peak_memory_bytes = peak_rss_bytes();
+    return mesh;
+}
+
+Reconstructor::Reconstructor(int device) : impl_(std::make_unique<Impl>(device)) {}
 Reconstructor::~Reconstructor() = default;
 Reconstructor::Reconstructor(Reconstructor&&) noexcept = default;
 Reconstructor& Reconstructor::operator=(Reconstructor&&) noexcept = default;
-Mesh Reconstructor::reconstruct(const float*, std::size_t, const Params&, Stats*) { throw Error("not implemented yet"); }
-const DeviceInfo& Reconstructor::device() const { return impl_->info; }
-std::vector<DeviceInfo> list_devices() { return {}; }
-float default_curvature_threshold() { return 1.0f; }
-std::string stats_to_json(const Stats&, const Params&) { return "{}"; }
+const DeviceInfo& Reconstructor::device() const { return impl_->rt.info(); }
+
+Mesh Reconstructor::reconstruct(const float* xyz, std::size_t count, const Params& params, Stats* stats) {
+    validate(params);
+    if (count == 0) throw Error("no particles to reconstruct (the input is empty)");
+    if (count > std::numeric_limits<std::uint32_t>::max() / 2) throw Error("too many particles for one frame");
+    Stats local;
+    Stats& s = stats ? *stats : local;
+    s = Stats{};
+    auto t0 = Clock::now();
+    try {
+        Mesh m = impl_->run(xyz, count, params, s);
+        s.time_ms.emplace_back("total", std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+        return m;
+    } catch (const cl::Error& e) {
+        throw Error(std::string("OpenCL call ") + e.what() + " failed: " + cl_error_name(e.err()));
+    } catch (const std::bad_alloc&) {
+        throw Error("out of host memory during reconstruction; use a larger cell or --memory-limit");
+    }
 }
+
+}  // namespace trilevel

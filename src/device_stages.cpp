@@ -1,0 +1,260 @@
+#include "device_stages.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+#include "stage_constants.hpp"
+
+namespace trilevel {
+namespace {
+
+std::size_t next_pow2(std::size_t v) {
+    std::size_t c = 1024;
+    while (c < v) c *= 2;
+    return c;
+}
+
+template <class... Args>
+void set_args(cl::Kernel& k, const Args&... args) {
+    cl_uint i = 0;
+    (k.setArg(i++, args), ...);
+}
+
+DeviceHash make_hash(OpenCLRuntime& rt, std::size_t capacity, const char* what) {
+    DeviceHash h;
+    h.capacity = next_pow2(capacity);
+    h.keys = rt.buffer(h.capacity * sizeof(cl_ulong), what);
+    h.stats = rt.buffer(2 * sizeof(cl_int), what);
+    rt.queue().enqueueFillBuffer(h.keys, ~cl_ulong{0}, 0, h.capacity * sizeof(cl_ulong));
+    rt.queue().enqueueFillBuffer(h.stats, cl_int{0}, 0, 2 * sizeof(cl_int));
+    return h;
+}
+
+struct HashCounters {
+    bool overflow;
+    std::size_t inserted;
+};
+HashCounters read_counters(OpenCLRuntime& rt, const DeviceHash& h) {
+    cl_int s[2];
+    rt.queue().enqueueReadBuffer(h.stats, CL_TRUE, 0, sizeof(s), s);
+    return {s[0] != 0, std::size_t(s[1])};
+}
+bool needs_growth(const HashCounters& c, const DeviceHash& h) { return c.overflow || c.inserted * 2 > h.capacity; }
+
+/// Runs `insert` into a fresh table until it fits at load factor <= 0.5 (DESIGN §5).
+template <class Insert>
+DeviceHash insert_growing(OpenCLRuntime& rt, std::size_t capacity, const char* what, Insert insert) {
+    for (;;) {
+        DeviceHash h = make_hash(rt, capacity, what);
+        insert(h);
+        HashCounters c = read_counters(rt, h);
+        if (!needs_growth(c, h)) return h;
+        capacity = std::max(h.capacity * 2, next_pow2(c.inserted * 2 + 1));
+    }
+}
+
+/// Host exclusive scan of bucket counts into (first, count) pairs.
+std::vector<cl_uint2> scan_ranges(const std::vector<cl_uint>& counts) {
+    std::vector<cl_uint2> range(counts.size());
+    cl_uint sum = 0;
+    for (std::size_t s = 0; s < counts.size(); ++s) {
+        range[s] = {{sum, counts[s]}};
+        sum += counts[s];
+    }
+    return range;
+}
+
+}  // namespace
+
+BinnedParticles bin_particles(OpenCLRuntime& rt, const std::vector<glm::vec4>& positions, float cell) {
+    BinnedParticles b;
+    b.count = positions.size();
+    b.cell = cell;
+    const cl_uint n = cl_uint(b.count);
+    const float inv_cell = 1.0f / cell;
+    cl::Buffer pos = rt.buffer(n * sizeof(cl_float4), "particle positions");
+    rt.queue().enqueueWriteBuffer(pos, CL_FALSE, 0, n * sizeof(cl_float4), positions.data());
+    cl::Buffer slot_of = rt.buffer(n * sizeof(cl_int), "particle bins");
+
+    b.bins = insert_growing(rt, b.count / 4, "particle bin hash", [&](DeviceHash& h) {
+        set_args(rt.kernel("bin_insert"), pos, n, inv_cell, h.keys, cl_ulong(h.mask()), slot_of, h.stats);
+        rt.run("bin_insert", n);
+    });
+    const std::size_t cap = b.bins.capacity;
+    cl::Buffer count = rt.buffer(cap * sizeof(cl_uint), "bin counts");
+    rt.queue().enqueueFillBuffer(count, cl_uint{0}, 0, cap * sizeof(cl_uint));
+    set_args(rt.kernel("bin_count"), slot_of, n, count);
+    rt.run("bin_count", n);
+
+    auto range = scan_ranges(read_buffer<cl_uint>(rt, count, cap));
+    b.range = rt.buffer(cap * sizeof(cl_uint2), "bin ranges");
+    rt.queue().enqueueWriteBuffer(b.range, CL_FALSE, 0, cap * sizeof(cl_uint2), range.data());
+    rt.queue().enqueueFillBuffer(count, cl_uint{0}, 0, cap * sizeof(cl_uint));
+    b.order = rt.buffer(n * sizeof(cl_uint), "particle order");
+    set_args(rt.kernel("bin_scatter"), slot_of, n, b.range, count, b.order);
+    rt.run("bin_scatter", n);
+    set_args(rt.kernel("bin_sort_buckets"), b.range, cl_ulong(cap), b.order);
+    rt.run("bin_sort_buckets", cap);
+    b.sorted = rt.buffer(n * sizeof(cl_float4), "sorted positions");
+    set_args(rt.kernel("bin_gather"), b.order, n, pos, b.sorted);
+    rt.run("bin_gather", n);
+    rt.finish();
+    return b;
+}
+
+ParticleClasses classify_particles(OpenCLRuntime& rt, const BinnedParticles& b, float r, float R) {
+    ParticleClasses c;
+    const cl_uint n = cl_uint(b.count);
+    c.gradient = rt.buffer(n * sizeof(cl_float4), "colour-field gradients");
+    c.flags = rt.buffer(n * sizeof(cl_uchar), "particle flags");
+    const float volume = std::pow(2.0f * r, 3.0f);
+    set_args(rt.kernel("color_field"), b.sorted, n, 1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.mask()), b.range, R,
+             volume, c.gradient, c.flags);
+    rt.run("color_field", n);
+    for (cl_uchar f : read_buffer<cl_uchar>(rt, c.flags, n)) {
+        c.surface += (f & 1) ? 1 : 0;
+        c.splash += (f & 2) ? 1 : 0;
+    }
+    return c;
+}
+
+namespace {
+
+/// Stage 4 on the device: per-particle curvature, per-cell mean, levels (paper eq. 1-3).
+void cell_curvature_levels(OpenCLRuntime& rt, const BinnedParticles& b, const ParticleClasses& c,
+                           const DeviceHash& cells, const cl::Buffer& cell_flags, float R, float inv_coarse,
+                           float threshold, cl::Buffer& level, cl::Buffer& cell_kappa, cl::Buffer& kappa) {
+    const cl_uint n = cl_uint(b.count);
+    const std::size_t cap = cells.capacity;
+    kappa = rt.buffer(n * sizeof(cl_float), "particle curvature");
+    set_args(rt.kernel("particle_curvature"), b.sorted, c.flags, n, 1.0f / b.cell, b.bins.keys,
+             cl_ulong(b.bins.mask()), b.range, c.gradient, R, kappa);
+    rt.run("particle_curvature", n);
+    cl::Buffer sum = rt.buffer(cap * sizeof(cl_ulong), "cell curvature sums");
+    cl::Buffer cnt = rt.buffer(cap * sizeof(cl_uint), "cell curvature counts");
+    cl::Buffer mx = rt.buffer(cap * sizeof(cl_uint), "cell curvature maxima");
+    rt.queue().enqueueFillBuffer(sum, cl_ulong{0}, 0, cap * sizeof(cl_ulong));
+    rt.queue().enqueueFillBuffer(cnt, cl_uint{0}, 0, cap * sizeof(cl_uint));
+    rt.queue().enqueueFillBuffer(mx, cl_uint{0}, 0, cap * sizeof(cl_uint));
+    set_args(rt.kernel("accumulate_cell_curvature"), b.sorted, c.flags, n, inv_coarse, kappa, cells.keys,
+             cl_ulong(cells.mask()), sum, cnt, mx);
+    rt.run("accumulate_cell_curvature", n);
+    set_args(rt.kernel("cell_levels"), cells.keys, cl_ulong(cells.mask()), sum, cnt, mx, cell_flags, threshold, level,
+             cell_kappa);
+    rt.run("cell_levels", cap);
+}
+
+}  // namespace
+
+SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& b, const ParticleClasses& c, float r, float R,
+                           float coarse_edge, float threshold, int forced_level) {
+    const cl_uint n = cl_uint(b.count);
+    const float inv_coarse = 1.0f / coarse_edge;
+    const float half_box = constants::kSurfaceBoxHalf * r;
+    DeviceHash cells = insert_growing(rt, c.surface * 2, "coarse cell hash", [&](DeviceHash& h) {
+        set_args(rt.kernel("mark_surface_cells"), b.sorted, c.flags, n, inv_coarse, half_box, h.keys,
+                 cl_ulong(h.mask()), h.stats);
+        rt.run("mark_surface_cells", n);
+    });
+    const std::size_t cap = cells.capacity;
+    cl::Buffer flags = rt.buffer(cap * sizeof(cl_uint), "coarse cell flags");
+    rt.queue().enqueueFillBuffer(flags, cl_uint{0}, 0, cap * sizeof(cl_uint));
+    set_args(rt.kernel("mark_splash_cells"), b.sorted, c.flags, n, inv_coarse, R, cells.keys, cl_ulong(cells.mask()),
+             flags);
+    rt.run("mark_splash_cells", n);
+
+    cl::Buffer level = rt.buffer(cap, "coarse cell levels"), cell_kappa, kappa;
+    SurfaceCells out;
+    if (forced_level == 0) {
+        cell_kappa = rt.buffer(cap * sizeof(cl_float), "coarse cell curvature");
+        cell_curvature_levels(rt, b, c, cells, flags, R, inv_coarse, threshold, level, cell_kappa, kappa);
+        out.particle_kappa = read_buffer<float>(rt, kappa, n);
+    }
+    auto keys = read_buffer<cl_ulong>(rt, cells.keys, cap);
+    auto fl = read_buffer<cl_uint>(rt, flags, cap);
+    auto lv = forced_level ? std::vector<cl_uchar>() : read_buffer<cl_uchar>(rt, level, cap);
+    auto kv = forced_level ? std::vector<float>() : read_buffer<float>(rt, cell_kappa, cap);
+    std::vector<std::size_t> slots;
+    for (std::size_t s = 0; s < cap; ++s)
+        if (keys[s] != lattice::kEmptyKey) slots.push_back(s);
+    std::sort(slots.begin(), slots.end(), [&](auto a, auto b2) { return keys[a] < keys[b2]; });
+    for (std::size_t s : slots) {
+        out.cells.push_back({lattice::unpack(keys[s]), std::uint8_t(forced_level ? forced_level : lv[s])});
+        out.splash.push_back(std::uint8_t(fl[s] & 1));
+        out.curvature.push_back(forced_level ? 0.0f : kv[s]);
+    }
+    rt.finish();
+    return out;
+}
+
+namespace {
+
+/// Unique points a batch of cells adds, for sizing the table (interior points are shared by none).
+std::size_t estimate_points(const std::vector<CoarseCell>& cells, int coarse_steps) {
+    std::size_t total = 0;
+    for (const auto& c : cells) {
+        std::size_t side = std::size_t(coarse_steps / stride(c.level));
+        total += side * side * side + side * side * 3 / 2;
+    }
+    return total;
+}
+
+void grow_fine_points(OpenCLRuntime& rt, FinePoints& p, std::size_t capacity) {
+    DeviceHash h = make_hash(rt, capacity, "fine point hash");
+    cl::Buffer values = rt.buffer(h.capacity * sizeof(cl_float), "fine point values");
+    rt.queue().enqueueFillBuffer(values, std::numeric_limits<float>::quiet_NaN(), 0, h.capacity * sizeof(cl_float));
+    if (p.hash.capacity) {
+        set_args(rt.kernel("hash_rehash"), p.hash.keys, p.values, cl_ulong(p.hash.capacity), h.keys, values,
+                 cl_ulong(h.mask()), h.stats);
+        rt.run("hash_rehash", p.hash.capacity);
+    }
+    p.hash = h;
+    p.values = values;
+}
+
+}  // namespace
+
+void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<CoarseCell>& cells,
+                         const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
+    if (cells.empty()) return;
+    std::vector<cl_int4> cell_data;
+    for (const auto& c : cells) cell_data.push_back({{c.coord.x, c.coord.y, c.coord.z, c.level}});
+    cl::Buffer cell_buf = rt.buffer(cell_data.size() * sizeof(cl_int4), "refinement cells");
+    rt.queue().enqueueWriteBuffer(cell_buf, CL_FALSE, 0, cell_data.size() * sizeof(cl_int4), cell_data.data());
+    const std::size_t side = std::size_t(frame.coarse_steps + 1);
+    const std::size_t work = cells.size() * side * side * side;
+    if (work > std::numeric_limits<cl_uint>::max()) throw Error("too many fine points in one refinement pass");
+
+    const std::size_t want = (p.inserted + estimate_points(cells, frame.coarse_steps)) * 2;
+    if (p.hash.capacity < want) grow_fine_points(rt, p, want);
+    for (;;) {  // stage 5; inserting is idempotent, so after growth the pass simply runs again
+        set_args(rt.kernel("refine_points"), cell_buf, cl_uint(cells.size()), cl_int(frame.coarse_steps), p.hash.keys,
+                 cl_ulong(p.hash.mask()), p.hash.stats);
+        rt.run("refine_points", work);
+        HashCounters c = read_counters(rt, p.hash);
+        p.inserted = c.inserted;
+        if (!needs_growth(c, p.hash)) break;
+        grow_fine_points(rt, p, std::max(p.hash.capacity * 2, next_pow2(c.inserted * 2 + 1)));
+    }
+
+    // Stage 6 over the points not evaluated yet: each unique point exactly once.
+    cl::Buffer count = rt.buffer(sizeof(cl_uint), "pending count");
+    cl::Buffer pending = rt.buffer(p.inserted * sizeof(cl_uint), "pending points");
+    rt.queue().enqueueFillBuffer(count, cl_uint{0}, 0, sizeof(cl_uint));
+    set_args(rt.kernel("collect_pending"), p.hash.keys, p.values, cl_ulong(p.hash.capacity), count, pending);
+    rt.run("collect_pending", p.hash.capacity);
+    const cl_uint todo = read_buffer<cl_uint>(rt, count, 1)[0];
+    set_args(rt.kernel("scalar_field"), pending, todo, p.hash.keys, p.values, frame.step, b.sorted, 1.0f / b.cell,
+             b.bins.keys, cl_ulong(b.bins.mask()), b.range, r, R);
+    rt.run("scalar_field", todo);
+    rt.finish();
+}
+
+FinePointMap read_fine_points(OpenCLRuntime& rt, const FinePoints& p) {
+    return FinePointMap(read_buffer<cl_ulong>(rt, p.hash.keys, p.hash.capacity),
+                        read_buffer<float>(rt, p.values, p.hash.capacity));
+}
+
+}  // namespace trilevel

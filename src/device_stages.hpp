@@ -1,0 +1,76 @@
+// The OpenCL stages of the pipeline (DESIGN §2, stages 1-6), each a function from buffers to
+// buffers. Particle positions are relative to the lattice origin. The tests compare each stage
+// with its plain C++ reference in src/reference/.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "coarse_cells.hpp"
+#include "fine_point_map.hpp"
+#include "opencl_runtime.hpp"
+
+namespace trilevel {
+
+/// A lock-free hash on the device: keys, an optional parallel value array, and its counters.
+struct DeviceHash {
+    cl::Buffer keys;
+    cl::Buffer stats;  ///< int[2]: overflow flag, keys inserted
+    std::size_t capacity = 0;
+    std::uint64_t mask() const { return capacity - 1; }
+};
+
+/// Stage 1: particles binned by a stable counting sort into a sparse grid of cell `cell`.
+struct BinnedParticles {
+    std::size_t count = 0;
+    float cell = 0.0f;      ///< bin edge (the kernel radius R)
+    cl::Buffer sorted;      ///< float4 positions in bin order
+    cl::Buffer order;       ///< uint: sorted index -> input index
+    DeviceHash bins;        ///< occupied bins
+    cl::Buffer range;       ///< uint2 per bin slot: first sorted index, count
+};
+BinnedParticles bin_particles(OpenCLRuntime& rt, const std::vector<glm::vec4>& positions, float cell);
+
+/// Stage 2: colour-field gradient (xyz) and neighbour count (w) per sorted particle; flags bit 0
+/// surface, bit 1 splash.
+struct ParticleClasses {
+    cl::Buffer gradient;  ///< float4
+    cl::Buffer flags;     ///< uchar
+    std::size_t surface = 0, splash = 0;
+};
+ParticleClasses classify_particles(OpenCLRuntime& rt, const BinnedParticles& bins, float r, float R);
+
+/// Stages 3-4: the sparse coarse surface cells with their levels, sorted by key.
+struct SurfaceCells {
+    std::vector<CoarseCell> cells;
+    std::vector<float> curvature;      ///< per cell (adaptive mode; paper eq. 3)
+    std::vector<std::uint8_t> splash;  ///< per cell: within R of a splash particle
+    std::vector<float> particle_kappa; ///< per sorted particle (adaptive mode; paper eq. 1)
+};
+/// `forced_level` 2 or 3 assigns that level to every cell (uniform modes, no curvature pass).
+SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& bins, const ParticleClasses& classes,
+                           float r, float R, float coarse_edge, float threshold, int forced_level);
+
+/// Stages 5-6: the fine lattice points and their scalar values.
+struct FinePoints {
+    DeviceHash hash;
+    cl::Buffer values;  ///< float per slot; NaN until evaluated
+    std::size_t inserted = 0;
+};
+/// Inserts the points of `cells` (growing the table as needed), then evaluates the new ones.
+void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vector<CoarseCell>& cells,
+                         const LatticeFrame& frame, const BinnedParticles& bins, float r, float R);
+/// Copies the table to the host.
+FinePointMap read_fine_points(OpenCLRuntime& rt, const FinePoints& points);
+
+/// Reads a whole buffer of `count` elements of T.
+template <class T>
+std::vector<T> read_buffer(OpenCLRuntime& rt, const cl::Buffer& b, std::size_t count) {
+    std::vector<T> out(count);
+    if (count) rt.queue().enqueueReadBuffer(b, CL_TRUE, 0, count * sizeof(T), out.data());
+    return out;
+}
+
+}  // namespace trilevel

@@ -1,0 +1,57 @@
+// The OpenCL device, context, queue and the compiled trilevel program; kernel timing from
+// profiling events. One per Reconstructor.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <CL/opencl.hpp>
+
+#include "trilevel/trilevel.hpp"
+
+namespace trilevel {
+
+class OpenCLRuntime {
+public:
+    /// device < 0: TRILEVEL_DEVICE, else the first GPU, else the first CPU device.
+    explicit OpenCLRuntime(int device);
+
+    const DeviceInfo& info() const { return info_; }
+    cl::Context& context() { return context_; }
+    cl::CommandQueue& queue() { return queue_; }
+    cl::Kernel& kernel(const std::string& name);
+
+    /// Work-group size for 1-D launches; 0 lets the driver choose (TRILEVEL_WORK_GROUP overrides).
+    std::size_t work_group_size() const { return work_group_; }
+    void set_work_group_size(std::size_t w) { work_group_ = w; }
+
+    /// Enqueues `name` over `global` work-items (rounded up to the work-group size), records its event.
+    void run(const std::string& name, std::size_t global);
+
+    /// Waits for the queue and adds the profiled time of every recorded launch to `kernel_ms`.
+    void finish();
+    std::map<std::string, double> take_kernel_times();
+
+    /// A device buffer of `bytes`, checked against the device's limits first.
+    cl::Buffer buffer(std::size_t bytes, const char* what);
+
+private:
+    void build_program();
+
+    DeviceInfo info_;
+    cl::Device device_;
+    cl::Context context_;
+    cl::CommandQueue queue_;
+    cl::Program program_;
+    std::map<std::string, cl::Kernel> kernels_;
+    std::vector<std::pair<std::string, cl::Event>> events_;
+    std::map<std::string, double> kernel_ms_;
+    std::size_t work_group_ = 0;
+};
+
+/// Human-readable name of an OpenCL error code (CL_OUT_OF_RESOURCES, ...).
+std::string cl_error_name(cl_int code);
+
+}  // namespace trilevel

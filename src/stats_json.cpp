@@ -1,0 +1,39 @@
+// Statistics as JSON (README "Statistics"; DESIGN §10).
+#include <nlohmann/json.hpp>
+
+#include "trilevel/trilevel.hpp"
+
+namespace trilevel {
+
+std::string stats_to_json(const Stats& s, const Params& p) {
+    nlohmann::ordered_json j;
+    j["particles"] = s.particles;
+    j["surface_particles"] = s.surface_particles;
+    j["splash_particles"] = s.splash_particles;
+    j["surface_cells"] = s.surface_cells;
+    j["surface_cells_by_level"] = {{"2", s.surface_cells_level2}, {"3", s.surface_cells_level3}};
+    j["splash_cells"] = s.splash_cells;
+    j["band_closure_cells"] = s.band_closure_cells;
+    j["fine_points"] = s.fine_points;
+    j["fine_points_by_level"] = {{"2", s.fine_points_level2}, {"3", s.fine_points_level3}};
+    j["vertices"] = s.vertices;
+    j["triangles"] = s.triangles;
+    j["triangles_by_kind"] = {{"level2", s.triangles_level2}, {"level3", s.triangles_level3}, {"patch", s.triangles_patch}};
+    nlohmann::ordered_json t = nlohmann::ordered_json::object();
+    for (const auto& [name, ms] : s.time_ms) t[name] = ms;
+    j["time_ms"] = t;
+    nlohmann::ordered_json k = nlohmann::ordered_json::object();
+    for (const auto& [name, ms] : s.kernel_ms) k[name] = ms;
+    j["kernel_ms"] = k;
+    j["peak_memory_bytes"] = s.peak_memory_bytes;
+    j["closed"] = s.closed;
+    j["device"] = s.device;
+    j["parameters"] = {{"particle_radius", p.particle_radius},
+                       {"kernel_radius", p.kernel_radius},
+                       {"mode", p.mode == Mode::Adaptive ? "adaptive" : "uniform"},
+                       {"cell", p.cell},
+                       {"curvature_threshold", p.curvature_threshold > 0 ? p.curvature_threshold : default_curvature_threshold()}};
+    return j.dump(2) + "\n";
+}
+
+}  // namespace trilevel

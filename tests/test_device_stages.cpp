@@ -1,0 +1,224 @@
+// Every OpenCL stage against its plain C++ reference on the same input (DESIGN §8), and the
+// lock-free hash under heavy duplication.
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <set>
+
+#include "device_stages.hpp"
+#include "reference/reference_stages.hpp"
+#include "stage_constants.hpp"
+#include "test_support.hpp"
+
+using namespace trilevel;
+
+namespace {
+
+OpenCLRuntime& runtime() {
+    static OpenCLRuntime rt(-1);
+    return rt;
+}
+
+/// A jittered lattice block of spacing 2r plus a ball and a few isolated particles, all at
+/// positive coordinates (the device stages take positions relative to the lattice origin).
+std::vector<glm::vec3> test_particles(float r, std::uint32_t seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> jitter(-0.04f * r, 0.04f * r);
+    std::vector<glm::vec3> x;
+    const glm::vec3 base(12 * r, 12 * r, 12 * r);
+    for (int k = 0; k < 10; ++k)
+        for (int j = 0; j < 8; ++j)
+            for (int i = 0; i < 12; ++i)
+                x.push_back(base + 2.0f * r * glm::vec3(i, j, k) + glm::vec3(jitter(rng), jitter(rng), jitter(rng)));
+    const glm::vec3 centre = base + glm::vec3(12 * r, 30 * r, 10 * r);
+    for (int k = -4; k <= 4; ++k)
+        for (int j = -4; j <= 4; ++j)
+            for (int i = -4; i <= 4; ++i)
+                if (i * i + j * j + k * k <= 16) x.push_back(centre + 2.0f * r * glm::vec3(i, j, k));
+    x.push_back(base + glm::vec3(60 * r, 5 * r, 5 * r));  // isolated splash particles
+    x.push_back(base + glm::vec3(70 * r, 40 * r, 5 * r));
+    x.push_back(base + glm::vec3(71.5f * r, 40 * r, 5 * r));
+    return x;
+}
+
+std::vector<glm::vec4> as_vec4(const std::vector<glm::vec3>& x) {
+    std::vector<glm::vec4> out;
+    for (auto p : x) out.emplace_back(p, 0.0f);
+    return out;
+}
+
+/// Device results come in bin order; this maps them back to input order.
+template <class T>
+std::vector<T> unsort(const std::vector<T>& sorted, const std::vector<cl_uint>& order) {
+    std::vector<T> out(sorted.size());
+    for (std::size_t s = 0; s < sorted.size(); ++s) out[order[s]] = sorted[s];
+    return out;
+}
+
+}  // namespace
+
+TEST_CASE("lock-free hash keeps every key exactly once under heavy duplication and grows on overflow", "[device][hash]") {
+    auto& rt = runtime();
+    const std::size_t n = 2'000'000, distinct = 300'000;
+    std::vector<cl_ulong> in(n);
+    std::mt19937_64 rng(7);
+    for (auto& k : in) k = lattice::pack(int(rng() % 100), int(rng() % 100), int(rng() % 30));  // <= 300k keys
+    std::set<cl_ulong> expected(in.begin(), in.end());
+    REQUIRE(expected.size() <= distinct);
+
+    cl::Buffer keys_in(rt.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, n * sizeof(cl_ulong), in.data());
+    cl::Buffer slots(rt.context(), CL_MEM_READ_WRITE, n * sizeof(cl_long));
+    auto insert_into = [&](std::size_t capacity) {
+        cl::Buffer keys(rt.context(), CL_MEM_READ_WRITE, capacity * sizeof(cl_ulong));
+        cl::Buffer stats(rt.context(), CL_MEM_READ_WRITE, 2 * sizeof(cl_int));
+        rt.queue().enqueueFillBuffer(keys, ~cl_ulong{0}, 0, capacity * sizeof(cl_ulong));
+        rt.queue().enqueueFillBuffer(stats, cl_int{0}, 0, 2 * sizeof(cl_int));
+        auto& k = rt.kernel("hash_insert_keys");
+        k.setArg(0, keys_in); k.setArg(1, cl_uint(n)); k.setArg(2, keys); k.setArg(3, cl_ulong(capacity - 1));
+        k.setArg(4, slots); k.setArg(5, stats);
+        rt.run("hash_insert_keys", n);
+        rt.finish();
+        return std::make_pair(read_buffer<cl_ulong>(rt, keys, capacity), read_buffer<cl_int>(rt, stats, 2));
+    };
+
+    SECTION("too small a table raises the overflow flag") {
+        auto [table, stats] = insert_into(1 << 16);
+        CHECK(stats[0] == 1);
+        CHECK(std::size_t(stats[1]) == (1u << 16));  // full, nothing beyond capacity
+    }
+    SECTION("a table grown to load factor <= 0.5 holds every key once, retrievable from its slot") {
+        std::size_t cap = 1 << 16;
+        std::vector<cl_ulong> table;
+        std::vector<cl_int> stats{1, 0};
+        while (stats[0] || std::size_t(stats[1]) * 2 > cap) {  // the host's growth rule
+            cap *= 2;
+            std::tie(table, stats) = insert_into(cap);
+        }
+        std::multiset<cl_ulong> present;
+        for (auto k : table)
+            if (k != lattice::kEmptyKey) present.insert(k);
+        CHECK(present.size() == expected.size());
+        CHECK(std::set<cl_ulong>(present.begin(), present.end()) == expected);
+        CHECK(std::size_t(stats[1]) == expected.size());
+        auto slot = read_buffer<cl_long>(rt, slots, n);
+        for (std::size_t i = 0; i < n; i += 997) REQUIRE(table[slot[i]] == in[i]);
+    }
+}
+
+TEST_CASE("binning is a stable counting sort", "[device][binning]") {
+    auto& rt = runtime();
+    const float r = 0.025f, R = 4 * r;
+    auto x = test_particles(r, 3);
+    BinnedParticles b = bin_particles(rt, as_vec4(x), R);
+    auto order = read_buffer<cl_uint>(rt, b.order, x.size());
+    auto sorted = read_buffer<cl_float4>(rt, b.sorted, x.size());
+    std::vector<cl_uint> perm(order);
+    std::sort(perm.begin(), perm.end());
+    for (std::size_t i = 0; i < perm.size(); ++i) REQUIRE(perm[i] == i);
+    auto cell = [&](std::size_t s) { return glm::ivec3(glm::floor(glm::vec3(sorted[s].s[0], sorted[s].s[1], sorted[s].s[2]) / R)); };
+    for (std::size_t s = 0; s < x.size(); ++s) REQUIRE(sorted[s].s[0] == x[order[s]].x);
+    for (std::size_t s = 1; s < x.size(); ++s)
+        if (cell(s) == cell(s - 1)) REQUIRE(order[s] > order[s - 1]);  // index order inside a bin
+    std::set<std::uint64_t> seen;  // each bin is one contiguous run
+    for (std::size_t s = 0; s < x.size(); ++s)
+        if (s == 0 || cell(s) != cell(s - 1)) REQUIRE(seen.insert(lattice::pack(cell(s))).second);
+}
+
+TEST_CASE("colour field, surface and splash particles match the C++ reference", "[device][color_field]") {
+    auto& rt = runtime();
+    const float r = 0.025f, R = 4 * r;
+    auto x = test_particles(r, 5);
+    BinnedParticles b = bin_particles(rt, as_vec4(x), R);
+    ParticleClasses c = classify_particles(rt, b, r, R);
+    auto order = read_buffer<cl_uint>(rt, b.order, x.size());
+    auto grad = unsort(read_buffer<cl_float4>(rt, c.gradient, x.size()), order);
+    auto flags = unsort(read_buffer<cl_uchar>(rt, c.flags, x.size()), order);
+    auto ref = reference::color_field(x, r, R);
+    std::size_t surface = 0, flag_mismatch = 0;
+    for (std::size_t i = 0; i < x.size(); ++i) {
+        glm::vec3 g(grad[i].s[0], grad[i].s[1], grad[i].s[2]);
+        REQUIRE(glm::length(g - ref.gradient[i]) * R <= 1e-4f + 1e-4f * glm::length(ref.gradient[i]) * R);
+        REQUIRE(int(grad[i].s[3]) == ref.neighbours[i]);
+        REQUIRE(bool(flags[i] & 2) == bool(ref.splash[i]));
+        surface += ref.surface[i];
+        // Only a gradient within float noise of the threshold may classify differently.
+        if (bool(flags[i] & 1) != bool(ref.surface[i])) {
+            ++flag_mismatch;
+            CHECK(std::fabs(glm::length(ref.gradient[i]) * R - constants::kSurfaceGradient) < 1e-4f);
+        }
+    }
+    CHECK(c.surface == surface + 0 * flag_mismatch - flag_mismatch * 0);
+    CHECK(c.splash == 3);
+}
+
+TEST_CASE("curvature, surface cells and levels match the C++ reference", "[device][curvature]") {
+    auto& rt = runtime();
+    const float r = 0.025f, R = 4 * r;
+    auto x = test_particles(r, 9);
+    BinnedParticles b = bin_particles(rt, as_vec4(x), R);
+    ParticleClasses c = classify_particles(rt, b, r, R);
+    auto ref_flags = reference::color_field(x, r, R);
+    auto ref_kappa = reference::curvature(x, ref_flags, R);
+    auto order = read_buffer<cl_uint>(rt, b.order, x.size());
+    for (int forced : {0, 2, 3}) {
+        const float threshold = 2.0f;
+        SurfaceCells dev = surface_cells(rt, b, c, r, R, 4 * r, threshold, forced);
+        auto ref = reference::surface_cells(x, ref_flags, ref_kappa, glm::vec3(0.0f), r, R, threshold, forced);
+        REQUIRE(dev.cells.size() == ref.cells.size());
+        for (std::size_t i = 0; i < ref.cells.size(); ++i) {
+            REQUIRE(dev.cells[i].coord == ref.cells[i].coord);
+            REQUIRE(dev.splash[i] == ref.splash[i]);
+            if (forced) {
+                REQUIRE(dev.cells[i].level == forced);
+            } else {
+                REQUIRE(dev.curvature[i] == Approx(ref.curvature[i]).margin(1e-4));
+                if (std::fabs(ref.curvature[i] - threshold) > 1e-3f) REQUIRE(dev.cells[i].level == ref.cells[i].level);
+            }
+        }
+        if (!forced) {
+            auto kappa = unsort(dev.particle_kappa, order);
+            for (std::size_t i = 0; i < x.size(); ++i) REQUIRE(kappa[i] == Approx(ref_kappa[i]).margin(1e-4));
+        }
+    }
+}
+
+TEST_CASE("scalar field on fine points matches the C++ reference, each point evaluated once", "[device][scalar_field]") {
+    auto& rt = runtime();
+    const float r = 0.025f, R = 4 * r;
+    auto x = test_particles(r, 11);
+    BinnedParticles b = bin_particles(rt, as_vec4(x), R);
+    ParticleClasses c = classify_particles(rt, b, r, R);
+    SurfaceCells sc = surface_cells(rt, b, c, r, R, 4 * r, 2.0f, 0);
+    LatticeFrame frame;
+    frame.step = r;
+    frame.coarse_steps = 4;
+    FinePoints points;
+    // Two passes over overlapping cell sets: the second evaluates only the new points.
+    std::vector<CoarseCell> half(sc.cells.begin(), sc.cells.begin() + sc.cells.size() / 2);
+    refine_and_evaluate(rt, points, half, frame, b, r, R);
+    const std::size_t first = points.inserted;
+    refine_and_evaluate(rt, points, sc.cells, frame, b, r, R);
+    CHECK(points.inserted > first);
+    FinePointMap map = read_fine_points(rt, points);
+
+    std::set<std::uint64_t> expected;
+    for (const auto& cell : sc.cells)
+        for (int k = 0; k <= 4; k += stride(cell.level))
+            for (int j = 0; j <= 4; j += stride(cell.level))
+                for (int i = 0; i <= 4; i += stride(cell.level)) expected.insert(lattice::pack(cell.coord * 4 + glm::ivec3(i, j, k)));
+    CHECK(points.inserted == expected.size());
+    std::vector<glm::vec3> pts;
+    std::vector<float> dev;
+    for (auto key : expected) {
+        const float* v = map.find(key);
+        REQUIRE(v != nullptr);
+        REQUIRE(std::isfinite(*v));
+        pts.push_back(glm::vec3(lattice::unpack(key)) * r);
+        dev.push_back(*v);
+    }
+    auto ref = reference::scalar_field(pts, x, r, R);
+    double worst = 0;
+    for (std::size_t i = 0; i < pts.size(); ++i) worst = std::max(worst, double(std::fabs(dev[i] - ref[i])));
+    INFO("largest |kernel - reference| = " << worst / r << " r over " << pts.size() << " points");
+    CHECK(worst < 1e-3 * r);
+}
