@@ -1,0 +1,184 @@
+#include "io/io_common.hpp"
+
+#include <cctype>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+
+#include <unistd.h>
+
+namespace fs = std::filesystem;
+
+namespace trilevel::io {
+
+void fail(const std::string& path, const std::string& what) { throw Error(path + ": " + what); }
+
+std::string read_file(const std::string& path) {
+    std::error_code ec;
+    const fs::file_status st = fs::status(path, ec);
+    if (!fs::exists(st)) fail(path, "no such file");
+    if (fs::is_directory(st)) fail(path, "is a directory, expected a file");
+    std::FILE* f = std::fopen(path.c_str(), "rb");
+    if (!f) fail(path, std::string("cannot open: ") + std::strerror(errno));
+    std::string data;
+    char chunk[1 << 16];
+    std::size_t got;
+    // Read by chunks rather than trusting file_size: works for pipes and files that change.
+    const auto size = fs::is_regular_file(st) ? fs::file_size(path, ec) : 0;
+    if (!ec && size > 0) data.reserve(size);
+    while ((got = std::fread(chunk, 1, sizeof chunk, f)) > 0) data.append(chunk, got);
+    const bool bad = std::ferror(f);
+    std::fclose(f);
+    if (bad) fail(path, "read error");
+    if (data.empty()) fail(path, "empty file");
+    return data;
+}
+
+std::string extension_of(const std::string& path) {
+    std::string ext = fs::path(path).extension().string();
+    if (!ext.empty() && ext[0] == '.') ext.erase(0, 1);
+    for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return ext;
+}
+
+void check_finite(const std::string& path, const std::vector<float>& xyz) {
+    for (std::size_t i = 0; i < xyz.size(); ++i)
+        if (!std::isfinite(xyz[i]))
+            fail(path, "particle " + std::to_string(i / 3) + ": non-finite coordinate (NaN or Inf)");
+}
+
+float to_float_checked(const std::string& path, double v, std::size_t value_index) {
+    if (!std::isfinite(v) || std::fabs(v) > std::numeric_limits<float>::max())
+        fail(path, "particle " + std::to_string(value_index / 3) +
+                       ": coordinate is not a finite float (NaN, Inf or out of range)");
+    return static_cast<float>(v);
+}
+
+std::size_t scalar_size(Scalar t) {
+    switch (t) {
+        case Scalar::I8: case Scalar::U8: return 1;
+        case Scalar::I16: case Scalar::U16: return 2;
+        case Scalar::I32: case Scalar::U32: case Scalar::F32: return 4;
+        default: return 8;
+    }
+}
+
+double load_scalar(const char* p, Scalar t, bool big) {
+    switch (t) {
+        case Scalar::I8: return load<std::int8_t>(p, big);
+        case Scalar::U8: return load<std::uint8_t>(p, big);
+        case Scalar::I16: return load<std::int16_t>(p, big);
+        case Scalar::U16: return load<std::uint16_t>(p, big);
+        case Scalar::I32: return load<std::int32_t>(p, big);
+        case Scalar::U32: return load<std::uint32_t>(p, big);
+        case Scalar::I64: return static_cast<double>(load<std::int64_t>(p, big));
+        case Scalar::U64: return static_cast<double>(load<std::uint64_t>(p, big));
+        case Scalar::F32: return load<float>(p, big);
+        case Scalar::F64: return load<double>(p, big);
+    }
+    return 0.0;
+}
+
+std::vector<float> convert_coords(const std::string& path, const char* p, std::size_t count, Scalar t,
+                                  bool big) {
+    std::vector<float> out(count);
+    const std::size_t size = scalar_size(t);
+    if (t == Scalar::F32) {  // the common case: no double round trip
+        for (std::size_t i = 0; i < count; ++i) out[i] = load<float>(p + i * 4, big);
+        check_finite(path, out);
+        return out;
+    }
+    for (std::size_t i = 0; i < count; ++i) out[i] = to_float_checked(path, load_scalar(p + i * size, t, big), i);
+    return out;
+}
+
+bool parse_double(std::string_view t, double& out) {
+    if (!t.empty() && t[0] == '+') t.remove_prefix(1);
+    const auto r = std::from_chars(t.data(), t.data() + t.size(), out);
+    return r.ec == std::errc() && r.ptr == t.data() + t.size();
+}
+
+bool parse_u64(std::string_view t, std::uint64_t& out) {
+    if (!t.empty() && t[0] == '+') t.remove_prefix(1);
+    const auto r = std::from_chars(t.data(), t.data() + t.size(), out);
+    return r.ec == std::errc() && r.ptr == t.data() + t.size();
+}
+
+std::vector<std::string_view> split_ws(std::string_view s) {
+    std::vector<std::string_view> out;
+    std::size_t i = 0;
+    auto ws = [](char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\f' || c == '\v'; };
+    while (i < s.size()) {
+        while (i < s.size() && ws(s[i])) ++i;
+        std::size_t j = i;
+        while (j < s.size() && !ws(s[j])) ++j;
+        if (j > i) out.push_back(s.substr(i, j - i));
+        i = j;
+    }
+    return out;
+}
+
+std::string upper(std::string_view s) {
+    std::string u(s);
+    for (char& c : u) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    return u;
+}
+
+AtomicWriter::AtomicWriter(const std::string& path) : path_(path) {
+    const fs::path target(path);
+    if (target.filename().empty()) fail(path, "output path names no file");
+    fs::path dir = target.parent_path();
+    std::error_code ec;
+    if (!dir.empty() && !fs::is_directory(dir, ec))
+        fail(path, "output directory '" + dir.string() + "' does not exist");
+    if (fs::is_directory(target, ec)) fail(path, "output path is a directory");
+    std::string name(1, '.');  // hidden, beside the target so that rename stays on one file system
+    name += target.filename().string();
+    name += ".tmp.";
+    name += std::to_string(::getpid());
+    temp_ = (dir / name).string();
+    file_ = std::fopen(temp_.c_str(), "wb");
+    if (!file_) fail(path, std::string("cannot create output file: ") + std::strerror(errno));
+    buffer_.reserve(std::size_t(4) << 20);
+}
+
+AtomicWriter::~AtomicWriter() {
+    if (file_) std::fclose(file_);
+    if (!committed_) {
+        std::error_code ec;
+        fs::remove(temp_, ec);
+    }
+}
+
+void AtomicWriter::flush() {
+    if (buffer_.empty()) return;
+    if (std::fwrite(buffer_.data(), 1, buffer_.size(), file_) != buffer_.size())
+        fail(path_, std::string("write failed: ") + std::strerror(errno));
+    buffer_.clear();
+}
+
+void AtomicWriter::write(const void* data, std::size_t n) {
+    if (buffer_.size() + n > buffer_.capacity()) flush();
+    if (n >= buffer_.capacity()) {
+        if (std::fwrite(data, 1, n, file_) != n) fail(path_, std::string("write failed: ") + std::strerror(errno));
+        return;
+    }
+    const char* p = static_cast<const char*>(data);
+    buffer_.insert(buffer_.end(), p, p + n);
+}
+
+void AtomicWriter::commit() {
+    flush();
+    const bool bad = std::fflush(file_) != 0 || std::ferror(file_);
+    const bool close_bad = std::fclose(file_) != 0;
+    file_ = nullptr;
+    if (bad || close_bad) fail(path_, std::string("write failed: ") + std::strerror(errno));
+    std::error_code ec;
+    fs::rename(temp_, path_, ec);
+    if (ec) fail(path_, "cannot rename temporary file into place: " + ec.message());
+    committed_ = true;
+}
+
+}  // namespace trilevel::io

@@ -1,0 +1,115 @@
+// Shared helpers of the particle and mesh readers/writers: errors naming the file, whole-file
+// reads, endian-aware loads, number parsing and atomic (temp + rename) buffered writes.
+#pragma once
+
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <string_view>
+#include <type_traits>
+#include <vector>
+
+#include "trilevel/trilevel.hpp"
+
+namespace trilevel::io {
+
+/// Throws Error "<path>: <what>".
+[[noreturn]] void fail(const std::string& path, const std::string& what);
+
+/// The whole file; Error for a missing file, a directory, an empty or unreadable file.
+std::string read_file(const std::string& path);
+
+/// Lower-case extension without the dot ("vtk"), empty when there is none.
+std::string extension_of(const std::string& path);
+
+/// Error naming the first non-finite coordinate.
+void check_finite(const std::string& path, const std::vector<float>& xyz);
+
+/// Narrows a double coordinate; Error when it is not finite or does not fit a float.
+float to_float_checked(const std::string& path, double v, std::size_t value_index);
+
+inline std::uint16_t bswap(std::uint16_t v) { return __builtin_bswap16(v); }
+inline std::uint32_t bswap(std::uint32_t v) { return __builtin_bswap32(v); }
+inline std::uint64_t bswap(std::uint64_t v) { return __builtin_bswap64(v); }
+
+/// Loads a scalar of type T stored with the given endianness at p (no alignment needed).
+template <class T>
+T load(const char* p, bool big_endian) {
+    constexpr bool host_big = false;  // the project targets little-endian hosts (x86-64, arm64)
+    T v;
+    if constexpr (sizeof(T) == 1) {
+        std::memcpy(&v, p, 1);
+    } else {
+        using U = std::conditional_t<sizeof(T) == 2, std::uint16_t,
+                                     std::conditional_t<sizeof(T) == 4, std::uint32_t, std::uint64_t>>;
+        U u;
+        std::memcpy(&u, p, sizeof(U));
+        if (big_endian != host_big) u = bswap(u);
+        std::memcpy(&v, &u, sizeof(T));
+    }
+    return v;
+}
+
+/// Stores v at p with the given endianness.
+template <class T>
+void store(char* p, T v, bool big_endian) {
+    using U = std::conditional_t<sizeof(T) == 2, std::uint16_t,
+                                 std::conditional_t<sizeof(T) == 4, std::uint32_t, std::uint64_t>>;
+    if constexpr (sizeof(T) == 1) {
+        std::memcpy(p, &v, 1);
+    } else {
+        U u;
+        std::memcpy(&u, &v, sizeof(U));
+        if (big_endian) u = bswap(u);
+        std::memcpy(p, &u, sizeof(U));
+    }
+}
+
+/// Numeric types found in particle files.
+enum class Scalar { I8, U8, I16, U16, I32, U32, I64, U64, F32, F64 };
+std::size_t scalar_size(Scalar t);
+
+/// Reads one scalar of type t at p as a double.
+double load_scalar(const char* p, Scalar t, bool big_endian);
+
+/// Converts `count` values of type t starting at p to float coordinates, rejecting non-finite ones.
+std::vector<float> convert_coords(const std::string& path, const char* p, std::size_t count, Scalar t,
+                                  bool big_endian);
+
+/// Parses a whole token as a number; false when it is not one.
+bool parse_double(std::string_view token, double& out);
+bool parse_u64(std::string_view token, std::uint64_t& out);
+
+/// Splits on ASCII whitespace.
+std::vector<std::string_view> split_ws(std::string_view line);
+
+/// Upper-cases ASCII.
+std::string upper(std::string_view s);
+
+/// A file written through a temporary in the target directory and renamed on commit();
+/// destroyed uncommitted, it removes the temporary. Writes are buffered in large blocks.
+class AtomicWriter {
+public:
+    explicit AtomicWriter(const std::string& path);
+    ~AtomicWriter();
+    AtomicWriter(const AtomicWriter&) = delete;
+    AtomicWriter& operator=(const AtomicWriter&) = delete;
+
+    void write(const void* data, std::size_t n);
+    void write(std::string_view s) { write(s.data(), s.size()); }
+    void commit();
+    const std::string& path() const { return path_; }
+
+private:
+    void flush();
+    std::string path_, temp_;
+    std::FILE* file_ = nullptr;
+    std::vector<char> buffer_;
+    bool committed_ = false;
+};
+
+/// Writes `count` floats in the given byte order (chunked conversion for big-endian).
+void write_floats(AtomicWriter& out, const float* v, std::size_t count, bool big_endian);
+
+}  // namespace trilevel::io

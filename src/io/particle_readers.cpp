@@ -1,0 +1,33 @@
+// read_particles: dispatch by extension, plus the raw .xyz reader.
+#include "io/io_common.hpp"
+#include "io/particle_formats.hpp"
+#include "trilevel/io.hpp"
+
+namespace trilevel {
+
+namespace io {
+std::vector<float> read_xyz_points(const std::string& path, const std::string& data) {
+    if (data.size() % 12 != 0)
+        fail(path, "size " + std::to_string(data.size()) + " bytes is not a multiple of 12 (raw float32 x, y, z triplets)");
+    return convert_coords(path, data.data(), data.size() / 4, Scalar::F32, false);
+}
+}  // namespace io
+
+ParticleSet read_particles(const std::string& path) {
+    using namespace io;
+    const std::string ext = extension_of(path);
+    using Reader = std::vector<float> (*)(const std::string&, const std::string&);
+    Reader reader = nullptr;
+    if (ext == "vtk") reader = read_vtk_points;
+    else if (ext == "vtu") reader = read_vtu_points;
+    else if (ext == "bgeo") reader = read_bgeo_points;
+    else if (ext == "ply") reader = read_ply_points;
+    else if (ext == "xyz") reader = read_xyz_points;
+    else fail(path, "unknown particle file extension '" + ext + "', expected .vtk, .vtu, .bgeo, .ply or .xyz");
+    const std::string data = read_file(path);
+    ParticleSet set;
+    set.positions = reader(path, data);
+    return set;
+}
+
+}  // namespace trilevel

@@ -1,0 +1,262 @@
+// PLY (.ply): ascii, binary_little_endian, binary_big_endian. Reads vertex x, y, z of any
+// numeric type; other vertex properties and other elements (also list properties) are skipped.
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <optional>
+
+#include "io/io_common.hpp"
+#include "io/particle_formats.hpp"
+#include "io/ply_format.hpp"
+
+namespace trilevel::io {
+namespace {
+
+std::optional<Scalar> ply_type(std::string_view t) {
+    if (t == "char" || t == "int8") return Scalar::I8;
+    if (t == "uchar" || t == "uint8") return Scalar::U8;
+    if (t == "short" || t == "int16") return Scalar::I16;
+    if (t == "ushort" || t == "uint16") return Scalar::U16;
+    if (t == "int" || t == "int32") return Scalar::I32;
+    if (t == "uint" || t == "uint32") return Scalar::U32;
+    if (t == "float" || t == "float32") return Scalar::F32;
+    if (t == "double" || t == "float64") return Scalar::F64;
+    return std::nullopt;
+}
+
+void header_line(const std::string& path, std::size_t line_no, std::string_view line, PlyHeader& h, bool& have_format) {
+    const auto t = split_ws(line);
+    auto bad = [&](const std::string& what) {
+        fail(path, "line " + std::to_string(line_no) + ": " + what + ", found '" + std::string(line.substr(0, 60)) + "'");
+    };
+    if (t.empty() || t[0] == "comment" || t[0] == "obj_info") return;
+    if (t[0] == "format") {
+        if (t.size() < 2) bad("expected format ascii|binary_little_endian|binary_big_endian 1.0");
+        if (t[1] == "ascii") h.format = PlyHeader::Ascii;
+        else if (t[1] == "binary_little_endian") h.format = PlyHeader::BinaryLE;
+        else if (t[1] == "binary_big_endian") h.format = PlyHeader::BinaryBE;
+        else bad("expected format ascii|binary_little_endian|binary_big_endian 1.0");
+        have_format = true;
+    } else if (t[0] == "element") {
+        std::uint64_t n;
+        if (t.size() < 3 || !parse_u64(t[2], n)) bad("expected element <name> <count>");
+        h.elements.push_back({std::string(t[1]), n, {}});
+    } else if (t[0] == "property") {
+        if (h.elements.empty()) bad("property before any element");
+        PlyProperty p;
+        if (t.size() >= 5 && t[1] == "list") {
+            p.list_count = ply_type(t[2]);
+            const auto vt = ply_type(t[3]);
+            if (!p.list_count || !vt || *p.list_count == Scalar::F32 || *p.list_count == Scalar::F64)
+                bad("expected property list <integer type> <type> <name>");
+            p.type = *vt;
+            p.name = std::string(t[4]);
+        } else {
+            const auto vt = t.size() >= 3 ? ply_type(t[1]) : std::nullopt;
+            if (!vt) bad("expected property <type> <name>");
+            p.type = *vt;
+            p.name = std::string(t[2]);
+        }
+        h.elements.back().props.push_back(p);
+    } else {
+        bad("unknown PLY header keyword");
+    }
+}
+
+}  // namespace
+
+PlyHeader parse_ply_header(const std::string& path, const std::string& data) {
+    if (data.compare(0, 3, "ply") != 0 || (data.size() > 3 && data[3] != '\n' && data[3] != '\r'))
+        fail(path, "line 1: not a PLY file: expected 'ply'");
+    PlyHeader h;
+    bool have_format = false;
+    std::size_t pos = data.find('\n') + 1, line_no = 1;
+    for (;;) {
+        if (pos == 0 || pos >= data.size()) fail(path, "line " + std::to_string(line_no) + ": PLY header has no end_header");
+        std::size_t nl = data.find('\n', pos);
+        if (nl == std::string::npos) nl = data.size();
+        std::string_view line(data.data() + pos, nl - pos);
+        ++line_no;
+        pos = nl + 1;
+        const auto t = split_ws(line);
+        if (!t.empty() && t[0] == "end_header") break;
+        header_line(path, line_no, line, h, have_format);
+    }
+    if (!have_format) fail(path, "PLY header has no format line");
+    h.body = std::min(pos, data.size());
+    h.header_lines = line_no;
+    return h;
+}
+
+namespace {
+
+/// Byte offset of each property in a fixed-size binary record.
+std::size_t record_size(const PlyElement& e) {
+    std::size_t s = 0;
+    for (const auto& p : e.props) s += scalar_size(p.type);
+    return s;
+}
+
+struct BinaryWalker {
+    const std::string& path;
+    const std::string& data;
+    bool big;
+    std::size_t pos;
+
+    void need(std::uint64_t n) const {
+        if (data.size() - pos < n) fail(path, "offset " + std::to_string(pos) + ": truncated PLY data");
+    }
+    /// Skips a whole element; fixed-size records are skipped at once.
+    void skip(const PlyElement& e) {
+        if (!e.has_list()) {
+            const std::size_t rec = record_size(e);
+            if (rec && e.count > (data.size() - pos) / rec) need(UINT64_MAX);
+            pos += e.count * rec;
+            return;
+        }
+        for (std::uint64_t i = 0; i < e.count; ++i)
+            for (const auto& p : e.props) skip_property(p);
+    }
+    void skip_property(const PlyProperty& p) {
+        if (!p.list_count) { need(scalar_size(p.type)); pos += scalar_size(p.type); return; }
+        need(scalar_size(*p.list_count));
+        const double k = load_scalar(data.data() + pos, *p.list_count, big);
+        pos += scalar_size(*p.list_count);
+        if (k < 0) fail(path, "offset " + std::to_string(pos) + ": negative list length");
+        const std::uint64_t bytes = static_cast<std::uint64_t>(k) * scalar_size(p.type);
+        need(bytes);
+        pos += bytes;
+    }
+};
+
+std::vector<float> read_binary_vertices(const std::string& path, const std::string& data, const PlyHeader& h,
+                                        std::size_t vi, const int xyz[3]) {
+    BinaryWalker w{path, data, h.format == PlyHeader::BinaryBE, h.body};
+    for (std::size_t e = 0; e < vi; ++e) w.skip(h.elements[e]);
+    const PlyElement& v = h.elements[vi];
+    std::size_t min_rec = 0;  // the smallest a record can be: bounds the count before allocating
+    for (const auto& p : v.props) min_rec += scalar_size(p.list_count ? *p.list_count : p.type);
+    if (v.count > (data.size() - w.pos) / min_rec)
+        fail(path, "offset " + std::to_string(w.pos) + ": truncated PLY data: " + std::to_string(v.count) +
+                       " vertices cannot fit in the " + std::to_string(data.size() - w.pos) + " bytes left");
+    std::vector<float> out(3 * v.count);
+    for (std::uint64_t i = 0; i < v.count; ++i) {
+        for (std::size_t k = 0; k < v.props.size(); ++k) {
+            const PlyProperty& p = v.props[k];
+            for (int c = 0; c < 3; ++c)
+                if (static_cast<int>(k) == xyz[c]) {
+                    w.need(scalar_size(p.type));
+                    out[3 * i + c] = to_float_checked(path, load_scalar(data.data() + w.pos, p.type, w.big), 3 * i + c);
+                }
+            w.skip_property(p);
+        }
+    }
+    return out;
+}
+
+/// ASCII body: tokens, with the line number kept for messages.
+struct AsciiWalker {
+    const std::string& path;
+    const std::string& data;
+    std::size_t pos, line;
+
+    std::string_view token() {
+        while (pos < data.size() && std::isspace(static_cast<unsigned char>(data[pos]))) if (data[pos++] == '\n') ++line;
+        const std::size_t s = pos;
+        while (pos < data.size() && !std::isspace(static_cast<unsigned char>(data[pos]))) ++pos;
+        if (pos == s) fail(path, "line " + std::to_string(line) + ": truncated PLY data");
+        return std::string_view(data.data() + s, pos - s);
+    }
+    double number() {
+        const auto t = token();
+        double v;
+        if (!parse_double(t, v)) fail(path, "line " + std::to_string(line) + ": malformed number '" + std::string(t.substr(0, 40)) + "'");
+        return v;
+    }
+    void skip_property(const PlyProperty& p) {
+        if (!p.list_count) { token(); return; }
+        const double k = number();
+        if (k < 0 || k != std::floor(k)) fail(path, "line " + std::to_string(line) + ": bad list length");
+        for (std::uint64_t j = 0; j < static_cast<std::uint64_t>(k); ++j) token();
+    }
+};
+
+std::vector<float> read_ascii_vertices(const std::string& path, const std::string& data, const PlyHeader& h,
+                                       std::size_t vi, const int xyz[3], std::size_t header_lines) {
+    AsciiWalker w{path, data, h.body, header_lines + 1};
+    for (std::size_t e = 0; e < vi; ++e)
+        for (std::uint64_t i = 0; !h.elements[e].props.empty() && i < h.elements[e].count; ++i)
+            for (const auto& p : h.elements[e].props) w.skip_property(p);
+    const PlyElement& v = h.elements[vi];
+    // each vertex needs at least 2 bytes per property: bound the count before allocating
+    if (v.count > (data.size() - w.pos) / (2 * v.props.size()) + 1)
+        fail(path, "line " + std::to_string(w.line) + ": truncated PLY data: " + std::to_string(v.count) + " vertices cannot fit in the rest of the file");
+    std::vector<float> out(3 * v.count);
+    for (std::uint64_t i = 0; i < v.count; ++i)
+        for (std::size_t k = 0; k < v.props.size(); ++k) {
+            int c = -1;
+            for (int j = 0; j < 3; ++j) if (static_cast<int>(k) == xyz[j]) c = j;
+            if (c < 0) { w.skip_property(v.props[k]); continue; }
+            const double x = w.number();
+            if (!std::isfinite(x) || std::fabs(x) > 3.4028234663852886e38)
+                fail(path, "line " + std::to_string(w.line) + ": vertex " + std::to_string(i) + ": non-finite coordinate");
+            out[3 * i + c] = static_cast<float>(x);
+        }
+    return out;
+}
+
+}  // namespace
+
+std::vector<float> read_ply_points(const std::string& path, const std::string& data) {
+    const PlyHeader h = parse_ply_header(path, data);
+    std::size_t vi = h.elements.size();
+    for (std::size_t e = 0; e < h.elements.size(); ++e) if (h.elements[e].name == "vertex") { vi = e; break; }
+    if (vi == h.elements.size()) fail(path, "PLY header has no 'element vertex'");
+    int xyz[3] = {-1, -1, -1};
+    const auto& props = h.elements[vi].props;
+    for (std::size_t k = 0; k < props.size(); ++k)
+        for (int c = 0; c < 3; ++c)
+            if (props[k].name == std::string(1, char('x' + c)) && !props[k].list_count) xyz[c] = static_cast<int>(k);
+    if (xyz[0] < 0 || xyz[1] < 0 || xyz[2] < 0) fail(path, "PLY vertex element lacks property x, y or z");
+    if (h.format != PlyHeader::Ascii) return read_binary_vertices(path, data, h, vi, xyz);
+    return read_ascii_vertices(path, data, h, vi, xyz, h.header_lines);
+}
+
+PlyValueReader::PlyValueReader(const std::string& path, const std::string& data, const PlyHeader& h)
+    : path_(path), data_(data), ascii_(h.format == PlyHeader::Ascii), big_(h.format == PlyHeader::BinaryBE),
+      pos_(h.body), line_(h.header_lines + 1) {}
+
+double PlyValueReader::next(Scalar t) {
+    if (!ascii_) {
+        if (data_.size() - pos_ < scalar_size(t)) fail(path_, "offset " + std::to_string(pos_) + ": truncated PLY data");
+        pos_ += scalar_size(t);
+        return load_scalar(data_.data() + pos_ - scalar_size(t), t, big_);
+    }
+    while (pos_ < data_.size() && std::isspace(static_cast<unsigned char>(data_[pos_]))) if (data_[pos_++] == '\n') ++line_;
+    const std::size_t s = pos_;
+    while (pos_ < data_.size() && !std::isspace(static_cast<unsigned char>(data_[pos_]))) ++pos_;
+    if (pos_ == s) fail(path_, "line " + std::to_string(line_) + ": truncated PLY data");
+    double v;
+    if (!parse_double(std::string_view(data_.data() + s, pos_ - s), v))
+        fail(path_, "line " + std::to_string(line_) + ": malformed number '" + data_.substr(s, std::min<std::size_t>(pos_ - s, 40)) + "'");
+    return v;
+}
+
+std::uint64_t PlyValueReader::list_length(Scalar t) {
+    const double k = next(t);
+    if (k < 0 || k != std::floor(k) || k > double(data_.size())) fail(path_, where() + ": bad list length");
+    return static_cast<std::uint64_t>(k);
+}
+
+void PlyValueReader::skip(const PlyProperty& p) {
+    const std::uint64_t k = p.list_count ? list_length(*p.list_count) : 1;
+    for (std::uint64_t j = 0; j < k; ++j) next(p.type);
+}
+
+std::string PlyValueReader::where() const {
+    return ascii_ ? "line " + std::to_string(line_) : "offset " + std::to_string(pos_);
+}
+
+std::size_t PlyValueReader::left() const { return data_.size() - pos_; }
+
+}  // namespace trilevel::io
