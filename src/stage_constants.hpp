@@ -8,7 +8,7 @@ namespace trilevel::constants {
 /// gradient with poly6 weights and particle volume V = (2r)^3. Calibrated on jittered lattice
 /// blocks (tests/test_reference_stages.cpp): every particle within one spacing of a face is surface,
 /// none deeper than R is.
-constexpr float kSurfaceGradient = 0.5f;
+constexpr float kSurfaceGradient = 0.55f;
 
 /// Splash particle: fewer than this many neighbours within R, itself excluded (paper §3).
 constexpr int kSplashNeighbours = 3;

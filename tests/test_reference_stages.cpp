@@ -210,3 +210,272 @@ TEST_CASE("scalar field zero crossing above a flat lattice face", "[reference]")
     CHECK(std::abs(z_between - (top + kR)) < 0.25f * kR);
     CHECK(std::abs(z_column - (top + kR)) < 0.25f * kR);
 }
+
+namespace {
+
+/// Top-face particles at least `margin` lattice steps away from the side faces.
+bool on_top_face_interior(const Block& b, std::size_t i, int margin) {
+    const glm::ivec3 id = b.index[i];
+    return id.z == b.n.z - 1 && std::min({id.x, id.y, b.n.x - 1 - id.x, b.n.y - 1 - id.y}) >= margin;
+}
+
+/// Cell curvatures (eq. 3 / fallback) of the coarse surface cells around a particle set; splash cells left out.
+std::vector<float> cell_kappa(const std::vector<glm::vec3>& x, glm::vec3 origin) {
+    const auto flags = ref::color_field(x, kR, kSupport);
+    const auto kappa = ref::curvature(x, flags, kSupport);
+    const auto cells = ref::surface_cells(x, flags, kappa, origin, kR, kSupport, 1e9f);
+    std::vector<float> v;
+    for (std::size_t c = 0; c < cells.cells.size(); ++c)
+        if (!cells.splash[c]) v.push_back(cells.curvature[c]);
+    return v;
+}
+
+std::vector<float> sphere_surface_kappa(float radius_in_r) {
+    const auto x = lattice_sphere(glm::vec3(1.0f), radius_in_r * kR);
+    const auto flags = ref::color_field(x, kR, kSupport);
+    const auto kappa = ref::curvature(x, flags, kSupport);
+    std::vector<float> v;
+    for (std::size_t i = 0; i < x.size(); ++i)
+        if (flags.surface[i]) v.push_back(kappa[i]);
+    return v;
+}
+
+}  // namespace
+
+// ---- surface and splash particles (DESIGN §3.1) -----------------------------------------------
+
+TEST_CASE("surface particles of a jittered lattice block, splash particles", "[reference]") {
+    // Layer 0 has its centres r below the fluid boundary (within one spacing of the face); layer 2
+    // centres lie 5r > R below it. Layer 1's R-neighbourhood is complete on the lattice (the missing
+    // layer sits exactly at distance R), so it measures like the interior: see "[calibration]".
+    for (unsigned seed : {21u, 22u}) {
+        const Block b = lattice_block({14, 12, 10}, glm::vec3(-0.3f, 0.2f, 1.0f), 0.02f, seed);
+        const auto flags = ref::color_field(b.x, kR, kSupport);
+        float min0 = 1e9f, max2 = 0.0f;
+        for (std::size_t i = 0; i < b.x.size(); ++i) {
+            if (b.layer[i] == 0) min0 = std::min(min0, gradient_measure(flags, i));
+            if (b.layer[i] >= 2) max2 = std::max(max2, gradient_measure(flags, i));
+            CHECK(flags.surface[i] == (b.layer[i] == 0));
+            CHECK_FALSE(flags.splash[i]);
+        }
+        // Margin: both populations stay at least 40% of the threshold away from it.
+        CHECK(min0 > 1.4f * kSurfaceGradient);
+        CHECK(max2 < 0.6f * kSurfaceGradient);
+        const std::size_t centre = b.x.size() / 2 + std::size_t(b.n.x) / 2;  // deep inside
+        CHECK(flags.color[centre] == Approx(flags.color[centre + 1]).epsilon(0.05));
+    }
+    SECTION("an isolated particle, a pair and a triple are splash; four in a tetrahedron are not") {
+        const glm::vec3 o(5.0f, 5.0f, 5.0f);
+        const std::vector<glm::vec3> x = {o,
+                                          o + glm::vec3(1, 0, 0), o + glm::vec3(1, 0, 2 * kR),
+                                          o + glm::vec3(2, 0, 0), o + glm::vec3(2, 2 * kR, 0), o + glm::vec3(2, 0, 2 * kR),
+                                          o + glm::vec3(3, 0, 0), o + glm::vec3(3, 2 * kR, 0), o + glm::vec3(3, 0, 2 * kR),
+                                          o + glm::vec3(3, 2 * kR, 2 * kR)};
+        const auto flags = ref::color_field(x, kR, kSupport);
+        const std::vector<int> want_neighbours = {0, 1, 1, 2, 2, 2, 3, 3, 3, 3};
+        for (std::size_t i = 0; i < x.size(); ++i) {
+            CHECK(flags.neighbours[i] == want_neighbours[i]);
+            CHECK(flags.splash[i] == (i < 6));
+            CHECK(flags.surface[i]);  // splash, or a tiny cluster: a large one-sided gradient
+        }
+        CHECK(glm::length(flags.gradient[0]) == 0.0f);
+        CHECK(ref::outward_normal(flags.gradient[0]) == glm::dvec3(0.0));
+        CHECK(flags.color[0] == Approx(std::pow(2 * kR, 3) * ref::poly6(0.0, kSupport)));
+        // The pair's outward normals point away from each other.
+        CHECK(ref::outward_normal(flags.gradient[1]).z == Approx(-1.0));
+        CHECK(ref::outward_normal(flags.gradient[2]).z == Approx(1.0));
+    }
+}
+
+// ---- curvature (paper eq. 1-2, DESIGN §3.2) ----------------------------------------------------
+
+TEST_CASE("curvature is small on a flat face and large on a small sphere", "[reference]") {
+    const Block b = lattice_block({20, 20, 8}, glm::vec3(0.0f), 0.02f, 5);
+    const auto flags = ref::color_field(b.x, kR, kSupport);
+    const auto kappa = ref::curvature(b.x, flags, kSupport);
+    for (std::size_t i = 0; i < b.x.size(); ++i) {
+        if (!flags.surface[i]) CHECK(kappa[i] == 0.0f);
+        if (on_top_face_interior(b, i, 3)) CHECK(kappa[i] < 0.02f);  // measured max 0.0042
+    }
+    const Summary s6 = summarize(sphere_surface_kappa(6.0f));
+    const Summary s12 = summarize(sphere_surface_kappa(12.0f));
+    CHECK(s6.min > 0.05f);       // measured 0.11
+    CHECK(s6.median > 0.3f);     // measured 0.53
+    CHECK(s12.median < s6.median);
+    CHECK(s12.median > 0.05f);   // measured 0.15
+}
+
+// ---- coarse surface cells and levels (paper §3, §3.1, DESIGN §3.2, §4) --------------------------
+
+namespace {
+
+constexpr float kThreshold = 0.1f;  // between flat-face cells (<= 0.007) and r = 6r sphere cells (>= 0.39)
+
+std::set<std::uint64_t> keys_of(const ref::SurfaceCells& cells) {
+    std::set<std::uint64_t> k;
+    for (const auto& c : cells.cells) k.insert(trilevel::lattice::pack(c.coord));
+    return k;
+}
+
+ref::SurfaceCells cells_of(const std::vector<glm::vec3>& x, glm::vec3 origin, int forced_level = 0) {
+    const auto flags = ref::color_field(x, kR, kSupport);
+    return ref::surface_cells(x, flags, ref::curvature(x, flags, kSupport), origin, kR, kSupport, kThreshold,
+                              forced_level);
+}
+
+}  // namespace
+
+TEST_CASE("coarse surface cells of a block lie near its faces, symmetric, level 2 on flat faces", "[reference]") {
+    // 16^3 particles, centres at origin + (9 + 2k) r: the fluid fills coarse cells 2..9 exactly,
+    // and no particle box (+- 2r) or splash box (+- R) ends on a cell boundary.
+    const glm::vec3 origin(-1.0f, 2.0f, 0.5f);
+    const Block b = lattice_block({16, 16, 16}, origin + glm::vec3(9 * kR), 0.0f, 1);
+    const ref::SurfaceCells cells = cells_of(b.x, origin);
+    const auto keys = keys_of(cells);
+    REQUIRE(keys.size() == cells.cells.size());
+    for (std::size_t c = 1; c < cells.cells.size(); ++c)
+        CHECK(trilevel::lattice::pack(cells.cells[c - 1].coord) < trilevel::lattice::pack(cells.cells[c].coord));
+    for (std::size_t c = 0; c < cells.cells.size(); ++c) {
+        const glm::ivec3 q = cells.cells[c].coord;
+        CHECK(glm::all(glm::greaterThanEqual(q, glm::ivec3(1))));
+        CHECK(glm::all(glm::lessThanEqual(q, glm::ivec3(10))));
+        const bool near_face = glm::any(glm::lessThanEqual(q, glm::ivec3(2))) || glm::any(glm::greaterThanEqual(q, glm::ivec3(9)));
+        CHECK(near_face);  // none deep inside
+        CHECK_FALSE(cells.splash[c]);
+        // Mirror images and axis permutations are surface cells too.
+        CHECK(keys.count(trilevel::lattice::pack(11 - q.x, q.y, q.z)) == 1);
+        CHECK(keys.count(trilevel::lattice::pack(q.x, 11 - q.y, q.z)) == 1);
+        CHECK(keys.count(trilevel::lattice::pack(q.x, q.y, 11 - q.z)) == 1);
+        CHECK(keys.count(trilevel::lattice::pack(q.y, q.z, q.x)) == 1);
+        // Flat faces, away from the block's edges (cells 4..7 on the other two axes): level 2.
+        int on_face = 0, interior = 0;
+        for (int a = 0; a < 3; ++a) {
+            on_face += q[a] <= 2 || q[a] >= 9;
+            interior += q[a] >= 4 && q[a] <= 7;
+        }
+        const bool face_interior = on_face == 1 && interior == 2;
+        if (face_interior) CHECK(int(cells.cells[c].level) == 2);
+    }
+    // Every cell of 1..10 per axis except the 6^3 inner ones (3..8): the +- 2r boxes reach one cell out.
+    CHECK(keys.size() == std::size_t(10 * 10 * 10 - 6 * 6 * 6));
+    // Uniform modes force the level.
+    for (int forced : {2, 3})
+        for (const auto& c : cells_of(b.x, origin, forced).cells) CHECK(int(c.level) == forced);
+}
+
+TEST_CASE("coarse cells of a small sphere and of splash particles are level 3", "[reference]") {
+    for (float rho : {4.0f, 6.0f}) {
+        const glm::vec3 centre(0.7f, 0.4f, 0.9f);
+        const ref::SurfaceCells cells = cells_of(lattice_sphere(centre, rho * kR), centre - glm::vec3(20 * kR));
+        REQUIRE(!cells.cells.empty());
+        for (std::size_t c = 0; c < cells.cells.size(); ++c) {
+            CHECK(int(cells.cells[c].level) == 3);
+            CHECK(cells.curvature[c] >= kThreshold);
+        }
+    }
+    SECTION("an isolated particle and a pair: splash cells, level 3, the +- 2r box only") {
+        const glm::vec3 origin(0.0f);
+        const glm::vec3 p = origin + glm::vec3(10.2f, 10.6f, 11.1f) * (4 * kR);  // box +- 2r spans 2 cells per axis
+        const std::vector<glm::vec3> single = {p}, pair = {p, p + glm::vec3(2 * kR, 0, 0)};
+        const ref::SurfaceCells one = cells_of(single, origin), two = cells_of(pair, origin);
+        CHECK(one.cells.size() == 8);
+        CHECK(two.cells.size() == 12);
+        for (const ref::SurfaceCells* s : {&one, &two})
+            for (std::size_t c = 0; c < s->cells.size(); ++c) {
+                CHECK(int(s->cells[c].level) == 3);
+                CHECK(s->splash[c]);
+            }
+    }
+}
+
+// ---- calibration printout (hidden; run `trilevel_tests "[calibration]"`) -----------------------
+
+
+TEST_CASE("calibration printout: |n| R by depth, curvature by shape, flat-face zero crossing", "[.][calibration]") {
+    std::printf("|n|*R by lattice layer (layer 0 = on a face), 16^3 block, jitter 2%% of spacing, 4 seeds:\n");
+    std::vector<std::vector<float>> by_layer(8), face_interior;
+    std::vector<float> face_only, edge_corner;
+    for (unsigned seed = 1; seed <= 4; ++seed) {
+        const Block b = lattice_block({16, 16, 16}, glm::vec3(0.0f), 0.02f, seed);
+        const auto flags = ref::color_field(b.x, kR, kSupport);
+        for (std::size_t i = 0; i < b.x.size(); ++i) {
+            by_layer[std::size_t(b.layer[i])].push_back(gradient_measure(flags, i));
+            if (b.layer[i] == 0) {
+                const glm::ivec3 id = b.index[i], n = b.n;
+                const int on_faces = (id.x == 0 || id.x == n.x - 1) + (id.y == 0 || id.y == n.y - 1) +
+                                     (id.z == 0 || id.z == n.z - 1);
+                (on_faces == 1 ? face_only : edge_corner).push_back(gradient_measure(flags, i));
+            }
+        }
+    }
+    for (std::size_t l = 0; l < by_layer.size(); ++l) {
+        char name[64];
+        std::snprintf(name, sizeof name, "layer %zu (centre depth %zu r)", l, 2 * l);
+        print(name, summarize(by_layer[l]));
+    }
+    print("layer 0, face interiors", summarize(face_only));
+    print("layer 0, edges and corners", summarize(edge_corner));
+    for (float jitter : {0.05f, 0.10f}) {
+        std::vector<float> l0, l1, deep;
+        const Block b = lattice_block({16, 16, 16}, glm::vec3(0.0f), jitter, 9);
+        const auto flags = ref::color_field(b.x, kR, kSupport);
+        for (std::size_t i = 0; i < b.x.size(); ++i)
+            (b.layer[i] == 0 ? l0 : b.layer[i] == 1 ? l1 : deep).push_back(gradient_measure(flags, i));
+        std::printf(" jitter %.0f%%:\n", double(jitter * 100));
+        print("layer 0", summarize(l0));
+        print("layer 1", summarize(l1));
+        print("layers >= 2", summarize(deep));
+    }
+
+    std::printf("curvature kappa of surface particles (R = 4r):\n");
+    for (float jitter : {0.0f, 0.02f}) {
+        const Block b = lattice_block({24, 24, 10}, glm::vec3(0.0f), jitter, 5);
+        const auto flags = ref::color_field(b.x, kR, kSupport);
+        const auto kappa = ref::curvature(b.x, flags, kSupport);
+        std::vector<float> v;
+        for (std::size_t i = 0; i < b.x.size(); ++i)
+            if (on_top_face_interior(b, i, 3)) v.push_back(kappa[i]);
+        print(jitter > 0 ? "flat face (jitter 2%)" : "flat face (no jitter)", summarize(v));
+    }
+    for (float rho : {4.0f, 6.0f, 8.0f, 12.0f, 24.0f}) {
+        char name[64];
+        std::snprintf(name, sizeof name, "lattice sphere radius %.0f r", double(rho));
+        print(name, summarize(sphere_surface_kappa(rho)));
+    }
+    std::printf("cell curvature (paper eq. 3, empty cells: max of 26 neighbours), coarse cell 4r:\n");
+    {
+        const Block b = lattice_block({24, 24, 10}, glm::vec3(0.0f), 0.02f, 5);
+        const auto flags = ref::color_field(b.x, kR, kSupport);
+        const auto kappa = ref::curvature(b.x, flags, kSupport);
+        const glm::vec3 origin(-9 * kR);
+        const auto cells = ref::surface_cells(b.x, flags, kappa, origin, kR, kSupport, 1e9f);
+        std::vector<float> face, all;
+        for (std::size_t c = 0; c < cells.cells.size(); ++c) {
+            const glm::ivec3 q = cells.cells[c].coord;  // block spans cells 2..13 (x, y), 2..6 (z)
+            all.push_back(cells.curvature[c]);
+            if (q.z >= 6 && std::min({q.x, q.y}) >= 4 && std::max({q.x, q.y}) <= 11) face.push_back(cells.curvature[c]);
+        }
+        print("top face cells, >= 2 cells from the sides", summarize(face));
+        print("all cells of the block (edges too)", summarize(all));
+    }
+    for (float rho : {4.0f, 6.0f, 8.0f, 12.0f, 24.0f}) {
+        char name[64];
+        std::snprintf(name, sizeof name, "cells of lattice sphere radius %.0f r", double(rho));
+        print(name, summarize(cell_kappa(lattice_sphere(glm::vec3(1.0f), rho * kR), glm::vec3(1.0f - (rho + 8) * kR))));
+    }
+    {
+        const Block b = lattice_block({30, 30, 12}, glm::vec3(0.0f), 0.0f, 1);
+        const ref::ParticleGrid grid(b.x, kSupport);
+        const float top = 11 * 2 * kR;
+        const float between = 14.5f * 2 * kR, column = 15 * 2 * kR;
+        std::printf("flat face 30x30x12, zero crossing above the top layer centres: between columns %.4f r, "
+                    "above a column %.4f r (target 1 +- 0.25 r)\n",
+                    double((zero_crossing_up(grid, between, between, top - kR, top + kSupport) - top) / kR),
+                    double((zero_crossing_up(grid, column, column, top - kR, top + kSupport) - top) / kR));
+        for (float dz : {-1.0f, 0.0f, 0.5f, 0.75f, 1.0f, 1.5f, 2.0f, 3.0f}) {
+            const auto s = ref::scalar_field_sample(glm::vec3(between, between, top + dz * kR), grid, kR);
+            std::printf("    z = top %+.2f r: phi %+.4f r, |x - xbar| %.4f r, EVmax %.4f, f %.4f, neighbours %d\n",
+                        double(dz), s.phi / kR, (s.phi + kR * s.f) / kR, s.ev_max, s.f, s.neighbours);
+        }
+    }
+}
