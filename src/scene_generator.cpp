@@ -1,0 +1,146 @@
+// Test scenes on jittered lattices (spacing 2r, y up), defined in lattice units so the
+// particle count is independent of the radius. Jitter comes from splitmix64, not from <random>
+// distributions, so a seed gives the same bytes with every standard library.
+#include <cmath>
+#include <functional>
+
+#include "trilevel/io.hpp"
+
+namespace trilevel {
+namespace {
+
+class SplitMix64 {
+public:
+    explicit SplitMix64(std::uint64_t seed) : state_(seed) {}
+    std::uint64_t next() {
+        std::uint64_t z = (state_ += 0x9e3779b97f4a7c15ull);
+        z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+        z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+        return z ^ (z >> 31);
+    }
+    /// Uniform in [-1, 1).
+    double symmetric() { return static_cast<double>(next() >> 11) * 0x1.0p-52 - 1.0; }
+    /// Uniform in [0, 1).
+    double unit() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }
+
+private:
+    std::uint64_t state_;
+};
+
+constexpr double kJitter = 0.03;  // of the spacing
+
+/// Collects particles given in lattice units (1 = one spacing) and scales them to world units.
+class SceneBuilder {
+public:
+    SceneBuilder(float radius, std::uint64_t seed) : spacing_(2.0 * radius), rng_(seed) {}
+
+    /// Adds a particle at lattice coordinates (x, y, z) plus jitter of `jitter` spacings.
+    void add(double x, double y, double z, double jitter = kJitter) {
+        const double p[3] = {x, y, z};
+        for (double c : p) out_.positions.push_back(static_cast<float>((c + jitter * rng_.symmetric()) * spacing_));
+    }
+
+    /// Every lattice point of the box [x0, x0+nx) x ... for which keep(i, j, k) holds.
+    void box(int x0, int y0, int z0, int nx, int ny, int nz,
+             const std::function<bool(int, int, int)>& keep = nullptr) {
+        for (int j = 0; j < ny; ++j)
+            for (int k = 0; k < nz; ++k)
+                for (int i = 0; i < nx; ++i)
+                    if (!keep || keep(i, j, k)) add(x0 + i, y0 + j, z0 + k);
+    }
+
+    /// A ball of lattice points within diameter/2 of the centre of a diameter^3 box at (x0, y0, z0).
+    void ball(int x0, int y0, int z0, int diameter) {
+        const double c = 0.5 * (diameter - 1), r = 0.5 * diameter;
+        box(x0, y0, z0, diameter, diameter, diameter, [&](int i, int j, int k) {
+            return (i - c) * (i - c) + (j - c) * (j - c) + (k - c) * (k - c) <= r * r;
+        });
+    }
+
+    SplitMix64& rng() { return rng_; }
+    ParticleSet take() { return std::move(out_); }
+
+private:
+    double spacing_;
+    SplitMix64 rng_;
+    ParticleSet out_;
+};
+
+ParticleSet block(SceneBuilder& b) {
+    b.box(0, 0, 0, 24, 24, 24);  // 13824 particles
+    return b.take();
+}
+
+ParticleSet sphere(SceneBuilder& b) {
+    b.ball(0, 0, 0, 30);  // about 14k particles
+    return b.take();
+}
+
+/// A pool 48 x 5 x 32 and a column 14 x 28 x 14 in one corner whose top layers shear and scatter.
+ParticleSet dam_break(SceneBuilder& b) {
+    b.box(0, 0, 0, 48, 5, 32);
+    const int top = 28;
+    for (int j = 0; j < top; ++j)
+        for (int k = 0; k < 14; ++k)
+            for (int i = 0; i < 14; ++i) {
+                const int above = j - (top - 5);  // the top 5 layers start to collapse
+                const double shear = above > 0 ? 0.35 * above * above / 5.0 : 0.0;
+                const double jitter = above > 0 ? kJitter + 0.04 * above : kJitter;
+                b.add(i + shear, 5 + j, k, jitter);
+            }
+    return b.take();
+}
+
+/// A flat pool 60 x 8 x 60, a drop of diameter 14 falling onto it, a thin jet rising from it
+/// and 12 isolated splash particles at least 6 spacings from everything else.
+ParticleSet pool_and_drop(SceneBuilder& b) {
+    b.box(0, 0, 0, 60, 8, 60);
+    b.ball(16, 22, 16, 14);                // centre (22.5, 28.5, 22.5), well above the pool
+    b.box(44, 8, 44, 2, 18, 2);            // jet: 2 x 2 particles thick, 18 high
+    std::vector<double> taken;             // splash positions, lattice units
+    auto far = [&](double x, double y, double z) {
+        auto d2 = [&](double cx, double cy, double cz) { return (x - cx) * (x - cx) + (y - cy) * (y - cy) + (z - cz) * (z - cz); };
+        if (y < 8 + 6) return false;                                  // pool top at y = 7
+        if (std::sqrt(d2(22.5, 28.5, 22.5)) < 7 + 6) return false;  // drop
+        if (std::fabs(x - 44.5) < 7 && std::fabs(z - 44.5) < 7 && y < 26 + 6) return false;  // jet
+        for (std::size_t s = 0; s < taken.size(); s += 3)
+            if (d2(taken[s], taken[s + 1], taken[s + 2]) < 36) return false;
+        return true;
+    };
+    while (taken.size() < 3 * 12) {
+        const double x = 60 * b.rng().unit(), y = 14 + 24 * b.rng().unit(), z = 60 * b.rng().unit();
+        if (!far(x, y, z)) continue;
+        taken.insert(taken.end(), {x, y, z});
+        b.add(x, y, z, 0.0);
+    }
+    return b.take();
+}
+
+}  // namespace
+
+std::vector<std::string> scene_names() { return {"block", "sphere", "dam-break", "pool-and-drop"}; }
+
+namespace {
+std::string known_scenes() {
+    std::string known;
+    for (const auto& n : scene_names()) known += (known.empty() ? "" : ", ") + n;
+    return known;
+}
+}  // namespace
+
+ParticleSet generate_scene(const std::string& name, float radius, std::uint64_t seed) {
+    if (!std::isfinite(radius) || radius <= 0.0f)
+        throw Error("scene '" + name + "': radius must be finite and > 0, got " + std::to_string(radius));
+    SceneBuilder b(radius, seed);
+    ParticleSet set;
+    if (name == "block") set = block(b);
+    else if (name == "sphere") set = sphere(b);
+    else if (name == "dam-break") set = dam_break(b);
+    else if (name == "pool-and-drop") set = pool_and_drop(b);
+    else throw Error("unknown scene '" + name + "', expected one of: " + known_scenes());
+    for (float c : set.positions)
+        if (!std::isfinite(c)) throw Error("scene '" + name + "': radius " + std::to_string(radius) + " is too large for float coordinates");
+    return set;
+}
+
+}  // namespace trilevel
