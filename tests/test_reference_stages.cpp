@@ -2,6 +2,7 @@
 // (DESIGN §8). Also the calibration of kSurfaceGradient (DESIGN §3.1) and the curvature scale
 // (DESIGN §3.2): run `trilevel_tests "[calibration]"` to print the measured distributions.
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -478,4 +479,28 @@ TEST_CASE("calibration printout: |n| R by depth, curvature by shape, flat-face z
                         double(dz), s.phi / kR, (s.phi + kR * s.f) / kR, s.ev_max, s.f, s.neighbours);
         }
     }
+}
+
+TEST_CASE("reference stage timings on 300k particles", "[.][calibration]") {
+    const Block b = lattice_block({67, 67, 67}, glm::vec3(0.0f), 0.02f, 3);
+    const auto t0 = std::chrono::steady_clock::now();
+    const auto flags = ref::color_field(b.x, kR, kSupport);
+    const auto t1 = std::chrono::steady_clock::now();
+    const auto kappa = ref::curvature(b.x, flags, kSupport);
+    const auto t2 = std::chrono::steady_clock::now();
+    const auto cells = ref::surface_cells(b.x, flags, kappa, glm::vec3(-9 * kR), kR, kSupport, 0.1f);
+    const auto t3 = std::chrono::steady_clock::now();
+    std::vector<glm::vec3> points;  // level-3 lattice points (spacing r) of the surface cells
+    for (const auto& c : cells.cells)
+        for (int k = 0; k <= 4; ++k)
+            for (int j = 0; j <= 4; ++j)
+                for (int i = 0; i <= 4; ++i) points.push_back(glm::vec3(-9 * kR) + kR * glm::vec3(4 * c.coord + glm::ivec3(i, j, k)));
+    const auto t4 = std::chrono::steady_clock::now();
+    const auto phi = ref::scalar_field(points, b.x, kR, kSupport);
+    const auto t5 = std::chrono::steady_clock::now();
+    const auto ms = [](auto a, auto b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
+    std::printf("%zu particles: colour field %.0f ms, curvature %.0f ms, %zu surface cells %.0f ms, "
+                "scalar field at %zu points %.0f ms\n",
+                b.x.size(), ms(t0, t1), ms(t1, t2), cells.cells.size(), ms(t2, t3), points.size(), ms(t4, t5));
+    CHECK(phi.size() == points.size());
 }
