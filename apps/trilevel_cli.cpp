@@ -1,1 +1,316 @@
-int main() { return 0; }
+// trilevel: command-line front end. Subcommands: reconstruct, generate, info, devices.
+// Every failure is one line "trilevel: error: <message>" on stderr; exit 1 (2 for usage errors).
+#include <algorithm>
+#include <cctype>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <limits>
+#include <new>
+#include <string>
+#include <unordered_map>
+
+#include <CLI/CLI.hpp>
+
+#include "io/io_common.hpp"
+#include "trilevel/io.hpp"
+#include "trilevel/trilevel.hpp"
+
+namespace {
+
+/// A usage error: bad option values (exit code 2).
+struct UsageError : trilevel::Error {
+    using trilevel::Error::Error;
+};
+
+/// Parses a number option given as text, so that "nan", "1e999" and "abc" get our own message.
+double parse_number(const std::string& name, const std::string& text) {
+    char* end = nullptr;
+    const double v = std::strtod(text.c_str(), &end);
+    if (text.empty() || end != text.c_str() + text.size()) throw UsageError(name + " must be a number, got '" + text + "'");
+    return v;
+}
+
+/// A length parameter: finite and > 0.
+float positive(const std::string& name, const std::string& text) {
+    const double v = parse_number(name, text);
+    if (!std::isfinite(v)) throw UsageError(name + " must be finite, got '" + text + "'");
+    if (v <= 0) throw UsageError(name + " must be > 0, got '" + text + "'");
+    if (v > std::numeric_limits<float>::max() || static_cast<float>(v) <= 0.0f)
+        throw UsageError(name + " is out of the float range, got '" + text + "'");
+    return static_cast<float>(v);
+}
+
+/// Bytes, optionally with a K, M, G or T suffix (powers of 1024), e.g. "2G".
+std::uint64_t parse_bytes(const std::string& text) {
+    std::string digits = text;
+    double scale = 1;
+    if (!digits.empty() && std::isalpha(static_cast<unsigned char>(digits.back()))) {
+        const char s = static_cast<char>(std::toupper(static_cast<unsigned char>(digits.back())));
+        const std::string units = "KMGT";
+        const auto u = units.find(s);
+        if (u == std::string::npos) throw UsageError("--memory-limit: unknown unit in '" + text + "', expected K, M, G or T");
+        scale = std::pow(1024.0, static_cast<double>(u + 1));
+        digits.pop_back();
+    }
+    const double v = parse_number("--memory-limit", digits) * scale;
+    if (!std::isfinite(v) || v < 1 || v > 1.8e19) throw UsageError("--memory-limit must be a positive byte count, got '" + text + "'");
+    return static_cast<std::uint64_t>(v);
+}
+
+/// Fails early (before long work) when an output cannot be written: bad extension, no directory.
+void check_output(const std::string& path, const std::vector<std::string>& extensions, const char* what) {
+    const std::string ext = trilevel::io::extension_of(path);
+    if (std::find(extensions.begin(), extensions.end(), ext) == extensions.end()) {
+        std::string list;
+        for (const auto& e : extensions) list += (list.empty() ? "." : ", .") + e;
+        throw UsageError(path + ": unknown " + what + " extension '" + ext + "', expected " + list);
+    }
+    const auto dir = std::filesystem::path(path).parent_path();
+    std::error_code ec;
+    if (!dir.empty() && !std::filesystem::is_directory(dir, ec))
+        throw trilevel::Error(path + ": output directory '" + dir.string() + "' does not exist");
+    if (std::filesystem::is_directory(path, ec)) throw trilevel::Error(path + ": output path is a directory");
+}
+
+// ---------------------------------------------------------------------------------------------
+// reconstruct
+
+struct ReconstructArgs {
+    std::string input, output, radius, kernel_radius = "4", mode = "adaptive", cell = "1", threshold, memory,
+        stats;
+    int device = -1;
+    bool color_levels = false, quiet = false;
+};
+
+trilevel::Params make_params(const ReconstructArgs& a) {
+    trilevel::Params p;
+    p.particle_radius = positive("radius (-r)", a.radius);
+    p.kernel_radius = positive("kernel radius (--kernel-radius)", a.kernel_radius);
+    if (a.mode == "adaptive") p.mode = trilevel::Mode::Adaptive;
+    else if (a.mode == "uniform") p.mode = trilevel::Mode::Uniform;
+    else throw UsageError("--mode must be adaptive or uniform, got '" + a.mode + "'");
+    p.cell = positive("cell (--cell)", a.cell);
+    const double q = 4.0 / p.cell;
+    if (std::fabs(q - std::round(q)) > 1e-6 || std::round(q) < 1)
+        throw UsageError("cell (--cell) " + a.cell + ": 4/cell must be an integer (e.g. 0.5, 1, 2 or 4)");
+    if (!a.threshold.empty()) p.curvature_threshold = positive("curvature threshold (--curvature-threshold)", a.threshold);
+    if (!a.memory.empty()) p.memory_limit_bytes = parse_bytes(a.memory);
+    return p;
+}
+
+double total_ms(const trilevel::Stats& s, double wall_ms) {
+    for (const auto& [name, ms] : s.time_ms)
+        if (name == "total") return ms;
+    return wall_ms;
+}
+
+int run_reconstruct(const ReconstructArgs& a) {
+    const trilevel::Params params = make_params(a);
+    check_output(a.output, {"ply", "obj", "vtk"}, "mesh");
+    if (!a.stats.empty()) check_output(a.stats, {"json"}, "statistics");
+    const auto start = std::chrono::steady_clock::now();
+    const trilevel::ParticleSet particles = trilevel::read_particles(a.input);
+    if (particles.size() == 0) throw trilevel::Error(a.input + ": holds no particles");
+    trilevel::Reconstructor rec(a.device);
+    trilevel::Stats stats;
+    const trilevel::Mesh mesh = rec.reconstruct(particles.positions.data(), particles.size(), params, &stats);
+    trilevel::MeshWriteOptions options;
+    options.color_levels = a.color_levels;
+    trilevel::write_mesh(a.output, mesh, options);
+    if (!a.stats.empty()) {
+        trilevel::io::AtomicWriter out(a.stats);
+        out.write(trilevel::stats_to_json(stats, params));
+        out.write("\n");
+        out.commit();
+    }
+    const double wall = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    if (!a.quiet)
+        std::printf("particles: %zu\nsurface cells: %zu (level 2: %zu, level 3: %zu)\ntriangles: %zu\nclosed: %s\n"
+                    "total time: %.1f ms\noutput: %s\n",
+                    particles.size(), stats.surface_cells, stats.surface_cells_level2, stats.surface_cells_level3,
+                    mesh.triangle_count(), stats.closed ? "yes" : "no", total_ms(stats, wall), a.output.c_str());
+    return 0;
+}
+
+// ---------------------------------------------------------------------------------------------
+// generate
+
+struct GenerateArgs {
+    std::string scene, output, radius;
+    std::uint64_t seed = 1;
+};
+
+int run_generate(const GenerateArgs& a) {
+    const float radius = positive("radius (--radius)", a.radius);
+    const auto names = trilevel::scene_names();
+    if (std::find(names.begin(), names.end(), a.scene) == names.end()) {
+        std::string list;
+        for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
+        throw UsageError("unknown scene '" + a.scene + "', expected one of: " + list);
+    }
+    check_output(a.output, {"xyz", "ply", "vtk"}, "particle");
+    const auto set = trilevel::generate_scene(a.scene, radius, a.seed);
+    trilevel::write_particles(a.output, set);
+    std::printf("%zu particles -> %s\n", set.size(), a.output.c_str());
+    return 0;
+}
+
+// ---------------------------------------------------------------------------------------------
+// info
+
+/// Median nearest-neighbour distance over up to 2000 particles, using a hash grid.
+double estimate_spacing(const std::vector<float>& p, const float lo[3], const float hi[3]) {
+    const std::size_t n = p.size() / 3;
+    if (n < 2) return 0;
+    double volume = 1;
+    for (int k = 0; k < 3; ++k) volume *= std::max(1e-12, double(hi[k]) - lo[k]);
+    const double h = std::max(std::cbrt(volume / double(n)), 1e-12);  // about one particle per cell
+    auto cell = [&](std::size_t i, int k) { return static_cast<std::int64_t>(std::floor((p[3 * i + k] - lo[k]) / h)); };
+    auto key = [](std::int64_t x, std::int64_t y, std::int64_t z) {
+        return (static_cast<std::uint64_t>(x) * 73856093u) ^ (static_cast<std::uint64_t>(y) * 19349663u) ^
+               (static_cast<std::uint64_t>(z) * 83492791u);
+    };
+    std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> grid;
+    for (std::size_t i = 0; i < n; ++i) grid[key(cell(i, 0), cell(i, 1), cell(i, 2))].push_back(static_cast<std::uint32_t>(i));
+    std::int64_t max_ring = 1;
+    for (int k = 0; k < 3; ++k) max_ring = std::max<std::int64_t>(max_ring, static_cast<std::int64_t>((hi[k] - lo[k]) / h) + 1);
+    const std::size_t samples = std::min<std::size_t>(n, 2000), stride = n / samples;
+    std::vector<double> nearest;
+    for (std::size_t s = 0; s < samples; ++s) {
+        const std::size_t i = s * stride;
+        const std::int64_t c[3] = {cell(i, 0), cell(i, 1), cell(i, 2)};
+        double best = std::numeric_limits<double>::infinity();
+        for (std::int64_t r = 0; r <= max_ring && best > (r - 1) * h; ++r)  // rings until no closer point can exist
+            for (std::int64_t dx = -r; dx <= r; ++dx)
+                for (std::int64_t dy = -r; dy <= r; ++dy)
+                    for (std::int64_t dz = -r; dz <= r; ++dz) {
+                        if (std::max({std::abs(dx), std::abs(dy), std::abs(dz)}) != r) continue;
+                        auto it = grid.find(key(c[0] + dx, c[1] + dy, c[2] + dz));
+                        if (it == grid.end()) continue;
+                        for (std::uint32_t j : it->second) {
+                            if (j == i) continue;
+                            double d2 = 0;
+                            for (int k = 0; k < 3; ++k) d2 += (double(p[3 * j + k]) - p[3 * i + k]) * (double(p[3 * j + k]) - p[3 * i + k]);
+                            best = std::min(best, std::sqrt(d2));
+                        }
+                    }
+        if (std::isfinite(best)) nearest.push_back(best);
+    }
+    if (nearest.empty()) return 0;
+    std::nth_element(nearest.begin(), nearest.begin() + nearest.size() / 2, nearest.end());
+    return nearest[nearest.size() / 2];
+}
+
+int run_info(const std::string& input) {
+    const auto set = trilevel::read_particles(input);  // rejects NaN/Inf, so what it returns is finite
+    float lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+    for (std::size_t i = 0; i < set.size(); ++i)
+        for (int k = 0; k < 3; ++k) {
+            const float v = set.positions[3 * i + k];
+            lo[k] = i == 0 ? v : std::min(lo[k], v);
+            hi[k] = i == 0 ? v : std::max(hi[k], v);
+        }
+    const double spacing = estimate_spacing(set.positions, lo, hi);
+    std::printf("file: %s\nparticles: %zu\nbounding box: [%g, %g, %g] - [%g, %g, %g]\nfinite: yes\n", input.c_str(),
+                set.size(), lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
+    if (spacing > 0) std::printf("median nearest-neighbour spacing: %g (radius estimate %g)\n", spacing, spacing / 2);
+    else std::printf("median nearest-neighbour spacing: n/a\n");
+    return 0;
+}
+
+// ---------------------------------------------------------------------------------------------
+// devices
+
+int run_devices() {
+    const auto devices = trilevel::list_devices();
+    if (devices.empty()) {
+        std::printf("no OpenCL devices\n");
+        return 0;
+    }
+    for (const auto& d : devices)
+        std::printf("%d: %s / %s\n   type %s, %u compute units, global memory %.1f MiB, max allocation %.1f MiB, "
+                    "int64 atomics %s\n",
+                    d.index, d.platform.c_str(), d.name.c_str(), d.type.c_str(), d.compute_units,
+                    double(d.global_memory) / (1 << 20), double(d.max_allocation) / (1 << 20), d.int64_atomics ? "yes" : "no");
+    return 0;
+}
+
+/// One line, whatever the message holds.
+std::string one_line(std::string s) {
+    std::replace(s.begin(), s.end(), '\n', ' ');
+    std::replace(s.begin(), s.end(), '\r', ' ');
+    return s;
+}
+
+int report(const std::string& message, int code) {
+    std::fprintf(stderr, "trilevel: error: %s\n", one_line(message).c_str());
+    return code;
+}
+
+int run(int argc, char** argv) {
+    CLI::App app{"trilevel: adaptive surface reconstruction of SPH particle sets (OpenCL)", "trilevel"};
+    app.require_subcommand(1);
+
+    ReconstructArgs ra;
+    auto* rec = app.add_subcommand("reconstruct", "Reconstructs a closed triangle mesh from a particle file");
+    rec->add_option("input", ra.input, "Particle file (.vtk, .vtu, .bgeo, .ply, .xyz)")->required();
+    rec->add_option("-o,--output", ra.output, "Mesh file (.ply, .obj, .vtk)")->required();
+    rec->add_option("-r,--radius", ra.radius, "Particle radius r in world units")->required();
+    rec->add_option("--kernel-radius", ra.kernel_radius, "Kernel support in multiples of r (default 4)");
+    rec->add_option("--mode", ra.mode, "adaptive (default) or uniform");
+    rec->add_option("--cell", ra.cell, "Uniform mode cell size in r; 4/cell must be an integer (default 1)");
+    rec->add_option("--curvature-threshold", ra.threshold, "Adaptive mode level-3 threshold (default: calibrated)");
+    rec->add_option("--device", ra.device, "OpenCL device index (see `trilevel devices`)");
+    rec->add_option("--stats", ra.stats, "Write statistics as JSON");
+    rec->add_flag("--color-levels", ra.color_levels, "PLY: colour vertices by level (green 2, blue 3)");
+    rec->add_option("--memory-limit", ra.memory, "Budget for the largest allocations, bytes or e.g. 2G");
+    rec->add_flag("-q,--quiet", ra.quiet, "Print nothing on success");
+
+    GenerateArgs ga;
+    auto* gen = app.add_subcommand("generate", "Writes a test particle scene");
+    gen->add_option("scene", ga.scene, "block, sphere, dam-break or pool-and-drop")->required();
+    gen->add_option("-o,--output", ga.output, "Particle file (.xyz, .ply, .vtk)")->required();
+    gen->add_option("--radius", ga.radius, "Particle radius in world units")->required();
+    gen->add_option("--seed", ga.seed, "Jitter seed (default 1)");
+
+    std::string info_input;
+    auto* info = app.add_subcommand("info", "Prints count, bounding box and spacing of a particle file");
+    info->add_option("input", info_input, "Particle file")->required();
+
+    auto* devices = app.add_subcommand("devices", "Lists OpenCL devices");
+
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForAllHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        return report(e.what(), 2);
+    }
+    if (rec->parsed()) return run_reconstruct(ra);
+    if (gen->parsed()) return run_generate(ga);
+    if (info->parsed()) return run_info(info_input);
+    if (devices->parsed()) return run_devices();
+    return report("no subcommand given", 2);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    try {
+        return run(argc, argv);
+    } catch (const UsageError& e) {
+        return report(e.what(), 2);
+    } catch (const std::bad_alloc&) {
+        return report("out of memory", 1);
+    } catch (const std::exception& e) {
+        return report(e.what(), 1);
+    } catch (...) {
+        return report("unknown failure", 1);
+    }
+}
