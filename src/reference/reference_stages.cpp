@@ -137,10 +137,14 @@ struct CellBox {
     glm::ivec3 lo, hi;
 };
 
+/// Coarse cell of the point q (relative to the grid origin). Written as the kernels write it,
+/// floor(q * (1 / edge)) in float, so that boxes ending exactly on a cell face round alike.
+glm::ivec3 coarse_of(glm::vec3 q, float inv_edge) { return glm::ivec3(glm::floor(q * inv_edge)); }
+
 /// Coarse cells overlapping the closed box p +- b (paper §3: AABB around a particle).
-CellBox cells_overlapping(glm::vec3 p, glm::vec3 origin, float b, float edge) {
+CellBox cells_overlapping(glm::vec3 p, glm::vec3 origin, float b, float inv_edge) {
     const glm::vec3 q = p - origin;
-    const CellBox box{glm::ivec3(glm::floor((q - b) / edge)), glm::ivec3(glm::floor((q + b) / edge))};
+    const CellBox box{coarse_of(q - b, inv_edge), coarse_of(q + b, inv_edge)};
     if (glm::any(glm::lessThan(box.lo, glm::ivec3(0))) || glm::any(glm::greaterThan(box.hi, glm::ivec3(lattice::kMaxCoord))))
         throw std::invalid_argument("surface_cells: a particle box leaves the coarse grid (origin too high?)");
     return box;
@@ -177,17 +181,17 @@ float cell_curvature(glm::ivec3 c, const std::unordered_map<std::uint64_t, CellK
 
 SurfaceCells surface_cells(const std::vector<glm::vec3>& x, const ParticleFlags& flags, const std::vector<float>& kappa,
                            glm::vec3 origin, float r, float R, float threshold, int forced_level) {
-    const float edge = constants::kCoarseCell * r;
+    const float inv_edge = 1.0f / (constants::kCoarseCell * r);
     std::vector<std::uint64_t> keys;
     std::unordered_set<std::uint64_t> splash_keys;
     std::unordered_map<std::uint64_t, CellKappa> per_cell;
     for (std::size_t i = 0; i < x.size(); ++i) {
         if (!flags.surface[i]) continue;
-        for_each_cell(cells_overlapping(x[i], origin, constants::kSurfaceBoxHalf * r, edge),
+        for_each_cell(cells_overlapping(x[i], origin, constants::kSurfaceBoxHalf * r, inv_edge),
                       [&](std::uint64_t k) { keys.push_back(k); });
         if (flags.splash[i])
-            for_each_cell(cells_overlapping(x[i], origin, R, edge), [&](std::uint64_t k) { splash_keys.insert(k); });
-        CellKappa& ck = per_cell[lattice::pack(glm::ivec3(glm::floor((x[i] - origin) / edge)))];
+            for_each_cell(cells_overlapping(x[i], origin, R, inv_edge), [&](std::uint64_t k) { splash_keys.insert(k); });
+        CellKappa& ck = per_cell[lattice::pack(coarse_of(x[i] - origin, inv_edge))];
         ck.sum += kappa[i];
         ck.count += 1;
         ck.max = std::max(ck.max, kappa[i]);

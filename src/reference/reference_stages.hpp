@@ -90,10 +90,11 @@ struct SurfaceCells {
     std::vector<std::uint8_t> splash;   ///< per cell: inside x_i +- R of a splash particle
 };
 
-/// Coarse cells of edge kCoarseCell * r, coord = floor((x - origin) / edge), which must be >= 0.
+/// Coarse cells of edge kCoarseCell * r, coord = floor((x - origin) * inv_edge), which must be >= 0,
+/// inv_edge = 1.0f / (kCoarseCell * r), all in float exactly as the kernels compute it.
 /// Surface cells: every cell overlapping the closed box x_i +- kSurfaceBoxHalf * r of a surface
-/// (splash included) particle i, i.e. per axis floor((x - origin - b) / edge) ..
-/// floor((x - origin + b) / edge). A surface cell is a splash cell when it also overlaps
+/// (splash included) particle i, i.e. per axis floor((x - origin - b) * inv_edge) ..
+/// floor((x - origin + b) * inv_edge). A surface cell is a splash cell when it also overlaps
 /// x_i +- R of a splash particle (same formula with b = R); splash boxes add no cells.
 /// forced_level: 0 = adaptive (level 3 if splash or curvature >= threshold, else 2); 2 or 3 =
 /// uniform mode, every cell gets that level.
