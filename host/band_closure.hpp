@@ -1,0 +1,21 @@
+// Band closure (DESIGN §2 stage 7, §7): no iso-surface crossing may sit on a face of the cell set
+// whose neighbour is missing.
+#pragma once
+
+#include <vector>
+
+#include "coarse_cells.hpp"
+#include "fine_point_map.hpp"
+
+namespace trilevel {
+
+/// The face neighbours missing from `cells` across which the surface leaves the set: a face
+/// whose lattice points (at its cell's stride, values after continuity) hold both signs
+/// (< 0 and >= 0). Sorted by lattice::pack(coord), unique; each gets the largest level among the
+/// cells that triggered it. Throws trilevel::Error when such a neighbour falls outside the domain
+/// or a needed point is missing from `field`. The caller evaluates the new cells' points and calls
+/// again until the result is empty.
+std::vector<CoarseCell> band_closure_cells(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
+                                           const FinePointMap& field);
+
+}  // namespace trilevel

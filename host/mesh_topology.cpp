@@ -1,0 +1,85 @@
+// Index-topology checks of a mesh (DESIGN §7); see mesh_topology.hpp.
+#include "mesh_topology.hpp"
+
+#include <atomic>
+#include <cstdint>
+#include <vector>
+
+#include <tbb/blocked_range.h>
+#include <tbb/combinable.h>
+#include <tbb/parallel_for.h>
+
+namespace trilevel {
+namespace {
+
+// Outgoing directed edges per vertex, compressed-row: targets of vertex v in [offset[v], offset[v+1]).
+struct OutEdges {
+    std::vector<std::uint32_t> offset, target;
+    std::size_t count(std::uint32_t a, std::uint32_t b) const {
+        std::size_t n = 0;
+        for (std::uint32_t i = offset[a]; i < offset[a + 1]; ++i) n += target[i] == b;
+        return n;
+    }
+};
+
+OutEdges build_out_edges(const Mesh& mesh) {
+    const std::size_t nv = mesh.vertex_count();
+    const auto& t = mesh.triangles;
+    OutEdges g;
+    g.offset.assign(nv + 1, 0);
+    for (std::size_t i = 0; i < t.size(); ++i) ++g.offset[t[i] + 1];
+    for (std::size_t v = 0; v < nv; ++v) g.offset[v + 1] += g.offset[v];
+    std::vector<std::uint32_t> fill(g.offset.begin(), g.offset.end() - 1);
+    g.target.resize(t.size());
+    for (std::size_t i = 0; i < t.size(); i += 3)
+        for (int k = 0; k < 3; ++k) g.target[fill[t[i + k]]++] = t[i + (k + 1) % 3];
+    return g;
+}
+
+}  // namespace
+
+MeshTopologyReport mesh_topology_report(const Mesh& mesh) {
+    MeshTopologyReport r;
+    const std::size_t nv = mesh.vertex_count();
+    const auto& t = mesh.triangles;
+    for (std::size_t i = 0; i + 2 < t.size(); i += 3) {
+        if (t[i] >= nv || t[i + 1] >= nv || t[i + 2] >= nv) ++r.bad_indices;
+        if (t[i] == t[i + 1] || t[i + 1] == t[i + 2] || t[i] == t[i + 2]) ++r.degenerate_triangles;
+    }
+    if (r.bad_indices || t.size() % 3) {
+        r.bad_indices += t.size() % 3 != 0;
+        return r;
+    }
+    const OutEdges g = build_out_edges(mesh);
+    tbb::combinable<MeshTopologyReport> part;
+    // Each undirected edge is judged once: at the first listing of its smaller-to-larger use,
+    // or, when there is none, at the first listing of its larger-to-smaller use.
+    tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, std::uint32_t(nv), 4096), [&](const auto& range) {
+        MeshTopologyReport& p = part.local();
+        for (std::uint32_t a = range.begin(); a != range.end(); ++a)
+            for (std::uint32_t i = g.offset[a]; i < g.offset[a + 1]; ++i) {
+                const std::uint32_t b = g.target[i];
+                if (b == a) continue;
+                bool first = true;
+                for (std::uint32_t j = g.offset[a]; j < i; ++j) first &= g.target[j] != b;
+                if (!first) continue;
+                const std::size_t nab = g.count(a, b), nba = g.count(b, a);
+                if (a > b && nba > 0) continue;
+                ++p.edges;
+                if (nab + nba == 1) ++p.boundary_edges;
+                else if (nab + nba > 2) ++p.non_manifold_edges;
+                else if (nab != 1) ++p.orientation_conflicts;
+            }
+    });
+    part.combine_each([&](const MeshTopologyReport& p) {
+        r.edges += p.edges;
+        r.boundary_edges += p.boundary_edges;
+        r.orientation_conflicts += p.orientation_conflicts;
+        r.non_manifold_edges += p.non_manifold_edges;
+    });
+    return r;
+}
+
+bool is_closed_and_oriented(const Mesh& mesh) { return mesh_topology_report(mesh).closed_and_oriented(); }
+
+}  // namespace trilevel

@@ -1,0 +1,27 @@
+// Index topology of a triangle mesh (DESIGN §7: closed, consistently oriented, no welding).
+#pragma once
+
+#include <cstddef>
+
+#include "trilevel/trilevel.hpp"
+
+namespace trilevel {
+
+/// Counts over undirected edges {a, b}, with n_ab / n_ba the uses of a->b / b->a.
+struct MeshTopologyReport {
+    std::size_t edges = 0;                   ///< distinct undirected edges
+    std::size_t boundary_edges = 0;          ///< n_ab + n_ba == 1
+    std::size_t orientation_conflicts = 0;   ///< two uses, same direction
+    std::size_t non_manifold_edges = 0;      ///< more than two uses
+    std::size_t degenerate_triangles = 0;    ///< a repeated vertex index
+    std::size_t bad_indices = 0;             ///< indices >= vertex_count()
+    bool closed_and_oriented() const {
+        return boundary_edges == 0 && orientation_conflicts == 0 && non_manifold_edges == 0 &&
+               degenerate_triangles == 0 && bad_indices == 0;
+    }
+};
+
+/// Builds the report with a per-vertex list of outgoing edges (linear memory, parallel).
+MeshTopologyReport mesh_topology_report(const Mesh& mesh);
+
+}  // namespace trilevel

@@ -1,0 +1,258 @@
+// Triangulation of the coarse surface cells (paper §3.3, DESIGN §6-7); see surface_mesher.hpp.
+//
+// Phase 1, parallel over fixed chunks of cells: gather each cell's (n+1)^3 values, run marching
+// cubes with cell-local vertex slots, stitch its transition faces (level-3 side). Phase 2,
+// sequential: number vertices in chunk order; only vertices on a cell boundary go through a hash.
+// Phase 3, parallel: rewrite triangle indices into the output arrays.
+#include "surface_mesher.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include "crack_stitch.hpp"
+#include "marching_cubes.hpp"
+
+namespace trilevel {
+namespace {
+
+constexpr std::size_t kCellsPerChunk = 64;  // fixed, so chunking never depends on the thread count
+
+struct ChunkOut {
+    std::vector<std::uint64_t> keys;   // per chunk-local vertex: edge key
+    std::vector<glm::vec3> positions;
+    std::vector<std::uint8_t> level;
+    std::vector<std::uint8_t> shared;  // on a cell boundary: may repeat in other cells
+    std::vector<std::uint32_t> triangles;
+    std::vector<TriangleKind> kinds;
+};
+
+struct Scratch {
+    std::vector<float> values;
+    std::vector<std::int32_t> slots;
+};
+
+// The crossing on the unit edge from `lower` along `axis` with end values va, vb (DESIGN §7);
+// both sides of a transition face call it with identical arguments.
+glm::vec3 crossing_position(const LatticeFrame& f, glm::ivec3 lower, int axis, float va, float vb) {
+    const float t = va / (va - vb);
+    glm::vec3 q(lower);
+    q[axis] += t;
+    return f.origin + f.step * q;
+}
+
+class CellMesher {
+public:
+    CellMesher(const LatticeFrame& frame, const FinePointMap& field, const std::vector<std::uint64_t>& keys,
+               const std::vector<std::uint8_t>& levels)
+        : frame_(frame), field_(field), cell_keys_(keys), cell_levels_(levels) {}
+
+    void mesh(const CoarseCell& cell, Scratch& s, ChunkOut& out) const;
+
+private:
+    const LatticeFrame& frame_;
+    const FinePointMap& field_;
+    const std::vector<std::uint64_t>& cell_keys_;  // sorted
+    const std::vector<std::uint8_t>& cell_levels_;
+
+    int neighbour_level(glm::ivec3 c) const {
+        if (glm::any(glm::lessThan(c, glm::ivec3(0)))) return 0;
+        const auto it = std::lower_bound(cell_keys_.begin(), cell_keys_.end(), lattice::pack(c));
+        return it != cell_keys_.end() && *it == lattice::pack(c) ? cell_levels_[it - cell_keys_.begin()] : 0;
+    }
+    void gather(const CoarseCell& cell, int n, Scratch& s) const;
+    void stitch(const CoarseCell& cell, Scratch& s, ChunkOut& out) const;
+};
+
+void CellMesher::gather(const CoarseCell& cell, int n, Scratch& s) const {
+    const int st = stride(cell.level), np = n + 1;
+    const glm::ivec3 base = cell.coord * frame_.coarse_steps;
+    s.values.resize(std::size_t(np) * np * np);
+    std::size_t i = 0;
+    for (int z = 0; z < np; ++z)
+        for (int y = 0; y < np; ++y)
+            for (int x = 0; x < np; ++x) {
+                const float* v = field_.find(base + st * glm::ivec3(x, y, z));
+                if (!v) throw Error("triangulation: a fine point of a surface cell is missing from the map");
+                s.values[i++] = *v;
+            }
+    s.slots.assign(s.values.size() * (cell.level == 2 ? 6 : 3), -1);
+}
+
+void CellMesher::mesh(const CoarseCell& cell, Scratch& s, ChunkOut& out) const {
+    const bool l2 = cell.level == 2;
+    const int st = stride(cell.level), n = frame_.coarse_steps / st, np = n + 1;
+    const glm::ivec3 base = cell.coord * frame_.coarse_steps;
+    gather(cell, n, s);
+    const auto& table = mc::case_table();
+    const auto& edges = mc::cube_edges();
+    const int axis_step[3] = {1, np, np * np};
+    int corner_off[8];
+    for (int c = 0; c < 8; ++c) corner_off[c] = (c & 1) + ((c >> 1) & 1) * np + ((c >> 2) & 1) * np * np;
+    const TriangleKind kind = l2 ? TriangleKind::Level2 : TriangleKind::Level3;
+
+    // Vertex of cube edge e of the cube at local (x, y, z), created on first use.
+    auto vertex = [&](int e, glm::ivec3 cube, int id0) -> std::uint32_t {
+        const mc::CubeEdge& ce = edges[e];
+        const int lp = id0 + corner_off[ce.corner0];
+        const float va = s.values[lp], vb = s.values[lp + axis_step[ce.axis]];
+        glm::ivec3 lower = cube + glm::ivec3(ce.corner0 & 1, (ce.corner0 >> 1) & 1, (ce.corner0 >> 2) & 1);
+        const int b = (ce.axis + 1) % 3, c = (ce.axis + 2) % 3;
+        const bool on_boundary = lower[b] == 0 || lower[b] == n || lower[c] == 0 || lower[c] == n;
+        float a0 = va, a1 = vb;
+        int slot = lp * 3 + ce.axis;
+        lower = base + st * lower;
+        if (l2) {  // the unit sub-edge holding the crossing (DESIGN §7)
+            const float m = lattice::edge_midpoint_value(va, vb);
+            const bool first = mc::inside(va) != mc::inside(m);
+            slot = slot * 2 + (first ? 0 : 1);
+            if (first) a1 = m;
+            else a0 = m, lower[ce.axis] += 1;
+        }
+        std::int32_t& id = s.slots[slot];
+        if (id < 0) {
+            id = std::int32_t(out.keys.size());
+            out.keys.push_back(lattice::edge_key(lower, ce.axis));
+            out.positions.push_back(crossing_position(frame_, lower, ce.axis, a0, a1));
+            out.level.push_back(std::uint8_t(cell.level));
+            out.shared.push_back(on_boundary);
+        }
+        return std::uint32_t(id);
+    };
+
+    for (int z = 0; z < n; ++z)
+        for (int y = 0; y < n; ++y)
+            for (int x = 0; x < n; ++x) {
+                const int id0 = (z * np + y) * np + x;
+                float v[8];
+                for (int c = 0; c < 8; ++c) v[c] = s.values[id0 + corner_off[c]];
+                const mc::CubeCase& cc = table[mc::case_index(v)];
+                for (int t = 0; t < cc.triangle_count; ++t) {
+                    for (int k = 0; k < 3; ++k) out.triangles.push_back(vertex(cc.triangles[t][k], {x, y, z}, id0));
+                    out.kinds.push_back(kind);
+                }
+            }
+    if (!l2) stitch(cell, s, out);
+}
+
+// Crack patches on the faces this level-3 cell shares with level-2 cells (DESIGN §7).
+void CellMesher::stitch(const CoarseCell& cell, Scratch& s, ChunkOut& out) const {
+    for (int axis = 0; axis < 3; ++axis)
+        for (int side = 0; side < 2; ++side) {
+            glm::ivec3 nb = cell.coord;
+            nb[axis] += side ? 1 : -1;
+            if (neighbour_level(nb) != 2) continue;
+            const Level3Block block{cell.coord * frame_.coarse_steps, frame_.coarse_steps, s.values.data(),
+                                    s.slots.data(), out.positions.data()};
+            const std::size_t patches = stitch_transition_face(block, axis, side, field_, out.triangles);
+            out.kinds.insert(out.kinds.end(), patches, TriangleKind::Patch);
+        }
+}
+
+// Edge key -> global vertex index, open addressing with linear probing.
+class VertexIndex {
+public:
+    explicit VertexIndex(std::size_t expected) {
+        std::size_t c = 16;
+        while (c < 2 * expected) c *= 2;
+        keys_.assign(c, lattice::kEmptyKey);
+        ids_.resize(c);
+        mask_ = c - 1;
+    }
+    // Returns the index stored for `key`, inserting `fresh` when absent.
+    std::uint32_t get_or_insert(std::uint64_t key, std::uint32_t fresh, bool& inserted) {
+        std::uint64_t s = lattice::hash(key) & mask_;
+        while (keys_[s] != lattice::kEmptyKey) {
+            if (keys_[s] == key) return inserted = false, ids_[s];
+            s = (s + 1) & mask_;
+        }
+        keys_[s] = key;
+        ids_[s] = fresh;
+        inserted = true;
+        return fresh;
+    }
+
+private:
+    std::vector<std::uint64_t> keys_;
+    std::vector<std::uint32_t> ids_;
+    std::uint64_t mask_;
+};
+
+// Phase 2: global numbering in order of first appearance; a vertex made by any level-2 cube is level 2.
+void number_vertices(std::vector<ChunkOut>& chunks, std::vector<std::vector<std::uint32_t>>& ids, Mesh& mesh) {
+    std::size_t shared = 0;
+    for (const auto& c : chunks) shared += std::size_t(std::count(c.shared.begin(), c.shared.end(), 1));
+    VertexIndex index(shared);
+    std::vector<glm::vec3> pos;
+    std::vector<std::uint8_t>& level = mesh.vertex_level;
+    for (std::size_t ci = 0; ci < chunks.size(); ++ci) {
+        const ChunkOut& c = chunks[ci];
+        ids[ci].resize(c.keys.size());
+        for (std::size_t v = 0; v < c.keys.size(); ++v) {
+            bool fresh = true;
+            const std::uint32_t id = c.shared[v] ? index.get_or_insert(c.keys[v], std::uint32_t(pos.size()), fresh)
+                                                 : std::uint32_t(pos.size());
+            if (fresh) {
+                pos.push_back(c.positions[v]);
+                level.push_back(c.level[v]);
+            } else {
+                level[id] = std::min(level[id], c.level[v]);
+            }
+            ids[ci][v] = id;
+        }
+    }
+    mesh.positions.resize(pos.size() * 3);
+    for (std::size_t v = 0; v < pos.size(); ++v)
+        for (int k = 0; k < 3; ++k) mesh.positions[3 * v + k] = pos[v][k];
+}
+
+}  // namespace
+
+Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame& frame, const FinePointMap& field) {
+    if (frame.coarse_steps < 2 || frame.coarse_steps % 2) throw Error("triangulation: coarse_steps must be even");
+    std::vector<std::size_t> order(cells.size());
+    for (std::size_t i = 0; i < cells.size(); ++i) order[i] = i;
+    std::sort(order.begin(), order.end(),
+              [&](std::size_t a, std::size_t b) { return lattice::pack(cells[a].coord) < lattice::pack(cells[b].coord); });
+    std::vector<std::uint64_t> keys(cells.size());
+    std::vector<std::uint8_t> levels(cells.size());
+    for (std::size_t i = 0; i < cells.size(); ++i) {
+        keys[i] = lattice::pack(cells[order[i]].coord);
+        levels[i] = cells[order[i]].level;
+    }
+
+    const CellMesher mesher(frame, field, keys, levels);
+    std::vector<ChunkOut> chunks((cells.size() + kCellsPerChunk - 1) / kCellsPerChunk);
+    tbb::enumerable_thread_specific<Scratch> scratch;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks.size(), 1), [&](const auto& r) {
+        Scratch& s = scratch.local();
+        for (std::size_t ci = r.begin(); ci != r.end(); ++ci) {
+            const std::size_t end = std::min(cells.size(), (ci + 1) * kCellsPerChunk);
+            for (std::size_t i = ci * kCellsPerChunk; i < end; ++i) mesher.mesh(cells[i], s, chunks[ci]);
+        }
+    });
+
+    Mesh mesh;
+    std::vector<std::vector<std::uint32_t>> ids(chunks.size());
+    number_vertices(chunks, ids, mesh);
+
+    std::vector<std::size_t> tri_offset(chunks.size() + 1, 0);
+    for (std::size_t ci = 0; ci < chunks.size(); ++ci) tri_offset[ci + 1] = tri_offset[ci] + chunks[ci].kinds.size();
+    mesh.triangles.resize(tri_offset.back() * 3);
+    mesh.triangle_kind.resize(tri_offset.back());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks.size(), 1), [&](const auto& r) {
+        for (std::size_t ci = r.begin(); ci != r.end(); ++ci) {
+            const ChunkOut& c = chunks[ci];
+            std::uint32_t* t = mesh.triangles.data() + tri_offset[ci] * 3;
+            for (std::size_t i = 0; i < c.triangles.size(); ++i) t[i] = ids[ci][c.triangles[i]];
+            std::copy(c.kinds.begin(), c.kinds.end(), mesh.triangle_kind.begin() + std::ptrdiff_t(tri_offset[ci]));
+        }
+    });
+    return mesh;
+}
+
+}  // namespace trilevel

@@ -1,0 +1,21 @@
+// Triangulation of the coarse surface cells (paper §3.3, DESIGN §2 stages 9-10, §6, §7).
+#pragma once
+
+#include <vector>
+
+#include "coarse_cells.hpp"
+#include "fine_point_map.hpp"
+#include "trilevel/trilevel.hpp"
+
+namespace trilevel {
+
+/// Marching cubes on every fine cube of every cell (level 3: stride 1, level 2: stride 2), one
+/// vertex per crossing keyed by the unit lattice edge that holds it (level-2 edges: the sub-edge
+/// picked by lattice::edge_midpoint_value), then crack patches on every face between a level-3
+/// and a level-2 cell. `field` must hold every point of every cell at its stride, after transition
+/// continuity. Cells are processed in the given order (callers pass them sorted by pack(coord));
+/// vertices are numbered by first appearance; the result is bit-identical for any thread count.
+/// Closed and oriented whenever no crossing lies on a face without a neighbour (band closure).
+Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame& frame, const FinePointMap& field);
+
+}  // namespace trilevel
