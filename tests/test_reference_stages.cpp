@@ -146,6 +146,8 @@ TEST_CASE("largest real eigenvalue of matrices with known spectra", "[reference]
         std::mt19937 rng(11);
         // A triple defective eigenvalue is only determined to about eps^(1/3) by any backward-stable method.
         for (int t = 0; t < 50; ++t) CHECK(largest(similar(jordan, rng)) == Approx(2.0).epsilon(1e-4));
+        const M3 nilpotent(glm::dvec3(0, 0, 0), glm::dvec3(1, 0, 0), glm::dvec3(0, 1, 0));
+        for (int t = 0; t < 50; ++t) CHECK(largest(similar(nilpotent, rng)) == Approx(0.0).margin(1e-4));
         const M3 j2(glm::dvec3(-1, 0, 0), glm::dvec3(1, -1, 0), glm::dvec3(0, 0, 0.25));
         for (int t = 0; t < 50; ++t) CHECK(largest(similar(j2, rng)) == Approx(0.25).epsilon(1e-6));
     }
@@ -157,6 +159,20 @@ TEST_CASE("largest real eigenvalue of matrices with known spectra", "[reference]
             const M3 D(glm::dvec3(d.x, 0, 0), glm::dvec3(0, d.y, 0), glm::dvec3(0, 0, d.z));
             const double want = std::max({d.x, d.y, d.z});
             CHECK(largest(similar(D, rng)) == Approx(want).margin(1e-9));
+        }
+        // Clustered spectra, as in the fluid's interior where J is close to the identity.
+        for (double gap : {1e-3, 1e-6, 0.0}) {
+            const M3 D(glm::dvec3(1 + gap, 0, 0), glm::dvec3(0, 1, 0), glm::dvec3(0, 0, 1 - gap));
+            for (int t = 0; t < 20; ++t) CHECK(largest(similar(D, rng)) == Approx(1 + gap).margin(1e-9));
+        }
+    }
+    SECTION("random complex pairs next to a real eigenvalue") {
+        std::mt19937 rng(5);
+        std::uniform_real_distribution<double> u(-3.0, 3.0);
+        for (int t = 0; t < 200; ++t) {
+            const double a = u(rng), b = u(rng), l = u(rng);
+            const M3 B(glm::dvec3(a, b, 0), glm::dvec3(-b, a, 0), glm::dvec3(0, 0, l));  // a +- ib, l
+            CHECK(largest(similar(B, rng)) == Approx(std::max(a, l)).margin(1e-8));
         }
     }
 }
