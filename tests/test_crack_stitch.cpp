@@ -1,0 +1,141 @@
+// Adaptive property test of DESIGN §7: random fields on blocks mixing level-2 and level-3 cells
+// give closed, oriented meshes whose patch triangles lie on transition faces ([mesh]).
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "crack_stitch.hpp"
+#include "mesh_test_support.hpp"
+#include "surface_mesher.hpp"
+#include "test_support.hpp"
+#include "transition_continuity.hpp"
+
+using namespace trilevel;
+
+namespace {
+
+int level_at(const std::vector<CoarseCell>& cells, glm::ivec3 c) {
+    for (const CoarseCell& cell : cells)
+        if (cell.coord == c) return cell.level;
+    return 0;
+}
+
+// Does the patch triangle lie in one level-2 fine face (2x2 steps) of a level-2/level-3 face?
+bool on_transition_face(const std::vector<CoarseCell>& cells, int cs, const glm::vec3 (&v)[3]) {
+    for (int a = 0; a < 3; ++a) {
+        const float plane = v[0][a];
+        if (v[1][a] != plane || v[2][a] != plane || plane != std::floor(plane) || int(plane) % cs) continue;
+        const int b = (a + 1) % 3, c = (a + 2) % 3;
+        const glm::vec3 lo = glm::min(v[0], glm::min(v[1], v[2])), hi = glm::max(v[0], glm::max(v[1], v[2]));
+        for (int db = -2; db <= 0; db += 2)
+            for (int dc = -2; dc <= 0; dc += 2) {
+                const int fb = 2 * int(std::floor(lo[b] / 2)) + db, fc = 2 * int(std::floor(lo[c] / 2)) + dc;
+                if (lo[b] < fb || hi[b] > fb + 2 || lo[c] < fc || hi[c] > fc + 2) continue;
+                glm::ivec3 c0;
+                c0[a] = int(plane) / cs - 1;
+                c0[b] = int(std::floor(fb / double(cs)));
+                c0[c] = int(std::floor(fc / double(cs)));
+                glm::ivec3 c1 = c0;
+                c1[a] += 1;
+                const int l0 = level_at(cells, c0), l1 = level_at(cells, c1);
+                if ((l0 == 2 && l1 == 3) || (l0 == 3 && l1 == 2)) return true;
+            }
+    }
+    return false;
+}
+
+// One random field of one of several kinds; many exact zeros and ambiguous faces.
+float random_value(std::mt19937& rng, int kind, glm::ivec3 p) {
+    switch (kind) {
+        case 0: return float(int(rng() % 5) - 2);              // {-2..2}
+        case 1: return float(int(rng() % 3) - 1);              // {-1, 0, 1}
+        case 2: return (rng() % 2) ? 1.0f : -1.0f;             // no zeros, maximal ambiguity
+        case 3: return std::uniform_real_distribution<float>(-1.0f, 1.0f)(rng);
+        default: {                                             // smooth plus noise
+            const float s = std::sin(0.9f * p.x) + std::cos(0.7f * p.y) + std::sin(1.3f * p.z + 0.5f);
+            return s + std::uniform_real_distribution<float>(-0.3f, 0.3f)(rng);
+        }
+    }
+}
+
+struct AdaptiveCase {
+    LatticeFrame frame{glm::vec3(0.0f), 1.0f, 4};
+    std::vector<CoarseCell> cells;
+    FinePointMap field;
+};
+
+AdaptiveCase random_adaptive_case(std::uint32_t seed) {
+    std::mt19937 rng(seed);
+    AdaptiveCase c;
+    const int cs = c.frame.coarse_steps;
+    const glm::ivec3 dims(2 + int(rng() % 2), 2 + int(rng() % 2), 2 + int(rng() % 2));
+    const glm::ivec3 off(int(rng() % 2), int(rng() % 2), int(rng() % 2));
+    const double p2 = 0.2 + 0.6 * (rng() % 4) / 3.0;
+    c.cells = test::block_cells(dims, off, 3);
+    for (CoarseCell& cell : c.cells) cell.level = std::uniform_real_distribution<double>(0, 1)(rng) < p2 ? 2 : 3;
+    const int kind = int(rng() % 5);
+    const glm::ivec3 lo = off * cs, hi = (off + dims) * cs;
+    c.field = test::make_field(c.cells, c.frame, [&](glm::ivec3 p) {
+        return test::on_box_boundary(p, lo, hi) ? 1.0f : random_value(rng, kind, p);
+    });
+    apply_transition_continuity(c.cells, c.frame, c.field);
+    return c;
+}
+
+}  // namespace
+
+TEST_CASE("adaptive property test: 10,000 random fields give closed oriented meshes", "[mesh]") {
+    constexpr int kFields = 10000;
+    int failures = 0;
+    std::size_t patches = 0, triangles = 0, transition_meshes = 0;
+    for (int seed = 0; seed < kFields; ++seed) {
+        AdaptiveCase c = random_adaptive_case(std::uint32_t(seed) * 2654435761u + 17u);
+        const Mesh m = triangulate_cells(c.cells, c.frame, c.field);
+        const auto r = mesh_topology_report(m);
+        if (!r.closed_and_oriented()) {
+            if (++failures <= 5)
+                FAIL_CHECK("seed " << seed << ": boundary " << r.boundary_edges << " conflicts " << r.orientation_conflicts
+                                   << " non-manifold " << r.non_manifold_edges << " degenerate " << r.degenerate_triangles);
+            continue;
+        }
+        std::size_t here = 0;
+        for (std::size_t t = 0; t < m.triangle_count(); ++t) {
+            if (m.triangle_kind[t] != TriangleKind::Patch) continue;
+            ++here;
+            glm::vec3 v[3];
+            for (int k = 0; k < 3; ++k) {
+                const std::uint32_t i = m.triangles[3 * t + k];
+                v[k] = {m.positions[3 * i], m.positions[3 * i + 1], m.positions[3 * i + 2]};
+            }
+            if (!on_transition_face(c.cells, c.frame.coarse_steps, v) && ++failures <= 5)
+                FAIL_CHECK("seed " << seed << ": patch triangle " << t << " off every transition face");
+        }
+        patches += here;
+        triangles += m.triangle_count();
+        transition_meshes += here > 0;
+    }
+    CHECK(failures == 0);
+    CHECK(transition_meshes > kFields / 4);  // the patches are exercised, not just allowed
+    WARN(kFields << " adaptive fields: " << triangles << " triangles, " << patches << " patches in "
+                 << transition_meshes << " meshes");
+}
+
+TEST_CASE("crack stitching: one level-2 cell beside one level-3 cell", "[mesh]") {
+    // A saddle-like field on the shared face: ambiguous level-2 face, inner crossings on level 3.
+    const LatticeFrame frame{glm::vec3(0.0f), 1.0f, 4};
+    for (int order = 0; order < 2; ++order) {
+        std::vector<CoarseCell> cells = {{{1, 1, 1}, std::uint8_t(order ? 3 : 2)}, {{2, 1, 1}, std::uint8_t(order ? 2 : 3)}};
+        const glm::ivec3 lo(4, 4, 4), hi(12, 8, 8);
+        FinePointMap field = test::make_field(cells, frame, [&](glm::ivec3 p) {
+            if (test::on_box_boundary(p, lo, hi)) return 1.0f;
+            return float((p.y - 6) * (p.z - 6)) - 0.5f + 0.1f * float(p.x - 8);
+        });
+        apply_transition_continuity(cells, frame, field);
+        const Mesh m = triangulate_cells(cells, frame, field);
+        INFO("level-3 cell on the " << (order ? "left" : "right"));
+        CHECK(is_closed_and_oriented(m));
+        CHECK(test::signed_volume(m) > 0.0);
+        CHECK(std::count(m.vertex_level.begin(), m.vertex_level.end(), 2) > 0);
+        CHECK(std::count(m.vertex_level.begin(), m.vertex_level.end(), 3) > 0);
+    }
+}
