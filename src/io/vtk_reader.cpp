@@ -37,7 +37,7 @@ public:
         if (nl == std::string::npos) nl = data_.size();
         std::string_view line(data_.data() + pos_, nl - pos_);
         pos_ = nl + 1;
-        ++line_;
+        err_line_ = ++line_;
         while (!line.empty() && std::isspace(static_cast<unsigned char>(line.back()))) line.remove_suffix(1);
         while (!line.empty() && std::isspace(static_cast<unsigned char>(line.front()))) line.remove_prefix(1);
         return line;
@@ -51,10 +51,9 @@ public:
         }
     }
 
-    [[noreturn]] void error(const std::string& what) const { fail(path_, "line " + std::to_string(line_) + ": " + what); }
+    /// Error at the line of the last line or token read.
+    [[noreturn]] void error(const std::string& what) const { fail(path_, "line " + std::to_string(err_line_) + ": " + what); }
     [[noreturn]] void error_at(const std::string& what) const { fail(path_, "offset " + std::to_string(pos_) + ": " + what); }
-
-    std::size_t line_number() const { return line_; }
 
     /// Reads `count` values of type t (binary big-endian or ASCII) as floats.
     std::vector<float> read_array(std::uint64_t count, Scalar t, bool binary) {
@@ -115,6 +114,7 @@ private:
             if (data_[pos_] == '\n') ++line_;
             ++pos_;
         }
+        err_line_ = line_ + 1;  // line_ counts the newlines before pos_
         const std::size_t start = pos_;
         while (pos_ < data_.size() && !std::isspace(static_cast<unsigned char>(data_[pos_]))) ++pos_;
         return std::string_view(data_.data() + start, pos_ - start);
@@ -142,7 +142,8 @@ private:
     const std::string& path_;
     const std::string& data_;
     std::size_t pos_ = 0;
-    std::size_t line_ = 0;
+    std::size_t line_ = 0;      ///< newlines consumed so far
+    std::size_t err_line_ = 0;  ///< line of the last line or token read
 };
 
 bool read_header(VtkCursor& cur) {

@@ -1,0 +1,395 @@
+// Particle readers: every real data file, every encoding variant, and hostile files.
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <regex>
+
+#include <zlib.h>
+
+#include "test_support.hpp"
+#include "trilevel/io.hpp"
+
+using trilevel::read_particles;
+using trilevel::test::TempDir;
+
+namespace {
+
+void write_bytes(const std::string& path, const std::string& bytes) {
+    std::ofstream(path, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+/// A few particles with awkward values: exact round trips must keep every bit.
+std::vector<float> sample_points() {
+    return {0.0f, -0.0f, 1.0f, 0.1f, -2.5e-3f, 3.4e38f, 1e-40f, 123456.789f, -7.0f, 0.33333334f, 42.0f, -1e-7f};
+}
+
+template <class T>
+std::string be_bytes(T v) {
+    char b[sizeof(T)];
+    std::memcpy(b, &v, sizeof(T));
+    std::reverse(b, b + sizeof(T));
+    return std::string(b, sizeof(T));
+}
+
+template <class T>
+std::string le_bytes(T v) {
+    return std::string(reinterpret_cast<const char*>(&v), sizeof(T));
+}
+
+std::string b64(const std::string& in) {
+    static const char* t = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    std::string out;
+    for (std::size_t i = 0; i < in.size(); i += 3) {
+        const std::uint32_t a = static_cast<unsigned char>(in[i]);
+        const std::uint32_t b = i + 1 < in.size() ? static_cast<unsigned char>(in[i + 1]) : 0;
+        const std::uint32_t c = i + 2 < in.size() ? static_cast<unsigned char>(in[i + 2]) : 0;
+        const std::uint32_t w = (a << 16) | (b << 8) | c;
+        out += t[w >> 18];
+        out += t[(w >> 12) & 63];
+        out += i + 1 < in.size() ? t[(w >> 6) & 63] : '=';
+        out += i + 2 < in.size() ? t[w & 63] : '=';
+    }
+    return out;
+}
+
+std::string zcompress(const std::string& in) {
+    uLongf len = compressBound(static_cast<uLong>(in.size()));
+    std::string out(len, '\0');
+    REQUIRE(compress(reinterpret_cast<Bytef*>(out.data()), &len, reinterpret_cast<const Bytef*>(in.data()),
+                     static_cast<uLong>(in.size())) == Z_OK);
+    out.resize(len);
+    return out;
+}
+
+std::string gzip(const std::string& in) {
+    z_stream zs{};
+    REQUIRE(deflateInit2(&zs, 6, Z_DEFLATED, 16 + MAX_WBITS, 8, Z_DEFAULT_STRATEGY) == Z_OK);
+    std::string out(deflateBound(&zs, static_cast<uLong>(in.size())) + 64, '\0');
+    zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in.data()));
+    zs.avail_in = static_cast<uInt>(in.size());
+    zs.next_out = reinterpret_cast<Bytef*>(out.data());
+    zs.avail_out = static_cast<uInt>(out.size());
+    REQUIRE(deflate(&zs, Z_FINISH) == Z_STREAM_END);
+    out.resize(zs.total_out);
+    deflateEnd(&zs);
+    return out;
+}
+
+struct VtuVariant {
+    std::string name;
+    std::string format;  // ascii, binary, appended
+    bool zlib = false, joint = false, base64_appended = false, u32 = false, big = false, f32 = false;
+};
+
+/// A VTU file holding pts, stored as the variant says (blocks of 16 bytes when compressed).
+std::string make_vtu(const std::vector<float>& pts, const VtuVariant& v) {
+    std::string raw;
+    for (float p : pts) {
+        if (v.f32) raw += v.big ? be_bytes(p) : le_bytes(p);
+        else raw += v.big ? be_bytes(double(p)) : le_bytes(double(p));
+    }
+    auto word = [&](std::uint64_t w) {
+        if (v.u32) return v.big ? be_bytes(std::uint32_t(w)) : le_bytes(std::uint32_t(w));
+        return v.big ? be_bytes(w) : le_bytes(w);
+    };
+    std::string header, payload;
+    if (v.zlib) {
+        const std::size_t bs = 16, nb = (raw.size() + bs - 1) / bs;
+        std::vector<std::string> blocks;
+        for (std::size_t b = 0; b < nb; ++b) blocks.push_back(zcompress(raw.substr(b * bs, bs)));
+        header = word(nb) + word(bs) + word(raw.size() - (nb - 1) * bs);
+        for (auto& b : blocks) { header += word(b.size()); payload += b; }
+    } else {
+        header = word(raw.size());
+        payload = raw;
+    }
+    std::string inline_text, appended;
+    if (v.format == "ascii") {
+        for (float p : pts) inline_text += std::to_string(double(p)) + " ";
+        char buf[64];
+        inline_text.clear();
+        for (float p : pts) { std::snprintf(buf, sizeof buf, "%.9g ", double(p)); inline_text += buf; }
+    } else {
+        std::string enc = v.joint ? b64(header + payload) : b64(header) + b64(payload);
+        if (v.format == "binary") inline_text = "\n  " + enc + "\n";
+        else appended = v.base64_appended ? enc : header + payload;
+    }
+    std::string s = "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"" +
+                    std::string(v.big ? "BigEndian" : "LittleEndian") + "\" header_type=\"" + (v.u32 ? "UInt32" : "UInt64") +
+                    "\"" + (v.zlib ? " compressor=\"vtkZLibDataCompressor\"" : "") + ">\n<UnstructuredGrid>\n<Piece NumberOfPoints=\"" +
+                    std::to_string(pts.size() / 3) + "\" NumberOfCells=\"0\">\n<PointData>\n<DataArray type=\"Float32\" Name=\"density\" format=\"ascii\">1 2 3 4</DataArray>\n</PointData>\n<Points>\n<DataArray type=\"" +
+                    (v.f32 ? "Float32" : "Float64") + "\" Name=\"Points\" NumberOfComponents=\"3\" format=\"" + v.format + "\"" +
+                    (v.format == "appended" ? " offset=\"0\"/>" : ">" + inline_text + "</DataArray>") +
+                    "\n</Points>\n</Piece>\n</UnstructuredGrid>\n";
+    if (v.format == "appended")
+        s += std::string("<AppendedData encoding=\"") + (v.base64_appended ? "base64" : "raw") + "\">\n _" + appended + "\n</AppendedData>\n";
+    return s + "</VTKFile>\n";
+}
+
+std::string bgeo_file(const std::vector<float>& pts, bool with_attributes) {
+    auto i32 = [](std::int32_t v) { return be_bytes(v); };
+    auto u16 = [](std::uint16_t v) { return be_bytes(v); };
+    const std::int32_t n = static_cast<std::int32_t>(pts.size() / 3);
+    std::string s = "BgeoV" + i32(5) + i32(n) + i32(0) + i32(0) + i32(0) + i32(with_attributes ? 3 : 0) + i32(0) + i32(0) + i32(0);
+    if (with_attributes) {
+        s += u16(2) + "id" + u16(1) + i32(1) + i32(0);                                     // int
+        s += u16(8) + "velocity" + u16(3) + i32(5) + i32(0) + i32(0) + i32(0);             // vector
+        s += u16(4) + "kind" + u16(1) + i32(4) + i32(2) + u16(5) + "water" + u16(3) + "air";  // indexed string
+    }
+    for (std::int32_t i = 0; i < n; ++i) {
+        for (int k = 0; k < 3; ++k) s += be_bytes(pts[3 * i + k]);
+        s += be_bytes(1.0f);
+        if (with_attributes) s += i32(i) + be_bytes(0.5f) + be_bytes(-0.5f) + be_bytes(2.0f) + i32(i % 2);
+    }
+    return s + std::string("\x00\xff", 2);
+}
+
+std::string vtk_binary(const std::vector<float>& pts, const std::string& version, const std::string& dataset, bool as_double) {
+    std::string s = "# vtk DataFile Version " + version + "\ntest\nBINARY\nDATASET " + dataset + "\nPOINTS " +
+                    std::to_string(pts.size() / 3) + (as_double ? " double\n" : " float\n");
+    for (float p : pts) s += as_double ? be_bytes(double(p)) : be_bytes(p);
+    return s + "\nVERTICES 0 0\n";
+}
+
+std::string vtk_ascii(const std::vector<float>& pts, const std::string& type) {
+    std::string s = "# vtk DataFile Version 5.1\nvtk output\nASCII\nDATASET UNSTRUCTURED_GRID\n"
+                    "FIELD FieldData 1\ntime 1 1 double\n0.25\nPOINTS " + std::to_string(pts.size() / 3) + " " + type + "\n";
+    char buf[64];
+    for (std::size_t i = 0; i < pts.size(); ++i) { std::snprintf(buf, sizeof buf, "%.9g%c", double(pts[i]), i % 9 == 8 ? '\n' : ' '); s += buf; }
+    s += "\nCELLS 3 2\nOFFSETS vtktypeint64\n0 1 2\nCONNECTIVITY vtktypeint64\n0 1\nCELL_TYPES 2\n1 1\n";
+    return s;
+}
+
+std::string ply_file(const std::vector<float>& pts, const std::string& format, bool doubles) {
+    const std::size_t n = pts.size() / 3;
+    std::string s = "ply\nformat " + format + " 1.0\ncomment made by a test\nelement camera 1\nproperty float fov\nproperty list uchar int ids\n"
+                    "element vertex " + std::to_string(n) + "\nproperty uchar flag\nproperty " + (doubles ? "double" : "float") +
+                    " z\nproperty " + (doubles ? "double" : "float") + " x\nproperty list uchar float extra\nproperty " +
+                    (doubles ? "double" : "float") + " y\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n";
+    const bool ascii = format == "ascii", big = format == "binary_big_endian";
+    auto num = [&](auto v) {
+        if (ascii) { char b[64]; std::snprintf(b, sizeof b, "%.17g ", double(v)); return std::string(b); }
+        return big ? be_bytes(v) : le_bytes(v);
+    };
+    s += num(45.0f) + num(std::uint8_t(2)) + num(std::int32_t(7)) + num(std::int32_t(8)) + (ascii ? "\n" : "");
+    for (std::size_t i = 0; i < n; ++i) {
+        const float x = pts[3 * i], y = pts[3 * i + 1], z = pts[3 * i + 2];
+        s += num(std::uint8_t(1));
+        s += doubles ? num(double(z)) + num(double(x)) : num(z) + num(x);
+        s += num(std::uint8_t(i % 3));
+        for (std::size_t k = 0; k < i % 3; ++k) s += num(0.5f);
+        s += (doubles ? num(double(y)) : num(y)) + (ascii ? "\n" : "");
+    }
+    return s;
+}
+
+void require_same(const trilevel::ParticleSet& set, const std::vector<float>& expected) {
+    REQUIRE(set.positions.size() == expected.size());
+    REQUIRE(std::memcmp(set.positions.data(), expected.data(), expected.size() * sizeof(float)) == 0);
+}
+
+/// Sample points without values that text output at %.9g cannot round-trip through double formats.
+std::vector<float> text_safe_points() { return sample_points(); }
+
+}  // namespace
+
+TEST_CASE("every shared data file reads with its exact count and finite coordinates", "[io]") {
+    TRILEVEL_REQUIRE_SHARED_DATA(dir);
+    const std::regex count_re("_([0-9]+)_particles\\.");
+    int files = 0;
+    for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+        const std::string name = entry.path().filename().string();
+        std::smatch m;
+        if (!std::regex_search(name, m, count_re)) continue;
+        // the bunny frame's name gives the last particle id; it holds 7706 particles
+        const std::size_t expected = name == "bunny_frame_14_7705_particles.vtk" ? 7706 : std::stoul(m[1]);
+        INFO(name);
+        const auto set = read_particles(entry.path().string());
+        CHECK(set.size() == expected);
+        CHECK(std::all_of(set.positions.begin(), set.positions.end(), [](float c) { return std::isfinite(c); }));
+        ++files;
+    }
+    CHECK(files >= 12);
+}
+
+TEST_CASE("VTU: every encoding reads the same floats", "[io]") {
+    TempDir tmp;
+    const auto pts = sample_points();
+    const std::vector<VtuVariant> variants = {
+        {"ascii", "ascii"},
+        {"inline base64", "binary"},
+        {"inline base64 joint", "binary", false, true},
+        {"inline base64 zlib", "binary", true},
+        {"inline base64 zlib u32", "binary", true, false, false, true},
+        {"appended raw", "appended"},
+        {"appended raw u32", "appended", false, false, false, true},
+        {"appended base64", "appended", false, false, true},
+        {"appended raw zlib", "appended", true},
+        {"appended base64 zlib", "appended", true, false, true},
+        {"appended raw big endian", "appended", false, false, false, false, true},
+        {"inline base64 zlib big endian f32", "binary", true, false, false, true, true, true},
+        {"appended base64 f32", "appended", false, false, true, false, false, true},
+    };
+    for (const auto& v : variants) {
+        INFO(v.name);
+        const std::string f = tmp.file("p.vtu");
+        write_bytes(f, make_vtu(pts, v));
+        require_same(read_particles(f), pts);
+    }
+}
+
+TEST_CASE("legacy VTK: binary float/double, 4.2 and 5.1, POLYDATA and UNSTRUCTURED_GRID, ASCII", "[io]") {
+    TempDir tmp;
+    const auto pts = sample_points();
+    const std::string f = tmp.file("p.vtk");
+    write_bytes(f, vtk_binary(pts, "4.2", "POLYDATA", false));
+    require_same(read_particles(f), pts);
+    write_bytes(f, vtk_binary(pts, "5.1", "UNSTRUCTURED_GRID", true));
+    require_same(read_particles(f), pts);
+    write_bytes(f, vtk_ascii(text_safe_points(), "float"));
+    require_same(read_particles(f), text_safe_points());
+    write_bytes(f, vtk_ascii(text_safe_points(), "double"));
+    require_same(read_particles(f), text_safe_points());
+}
+
+TEST_CASE("PLY: ascii and binary LE/BE, float and double, other elements and properties skipped", "[io]") {
+    TempDir tmp;
+    const auto pts = sample_points();
+    const std::string f = tmp.file("p.ply");
+    for (const std::string fmt : {"ascii", "binary_little_endian", "binary_big_endian"})
+        for (bool doubles : {false, true}) {
+            INFO(fmt << (doubles ? " double" : " float"));
+            write_bytes(f, ply_file(pts, fmt, doubles));
+            require_same(read_particles(f), pts);
+        }
+}
+
+TEST_CASE("BGEO: gzip'd and plain, with and without extra point attributes", "[io]") {
+    TempDir tmp;
+    const auto pts = sample_points();
+    const std::string f = tmp.file("p.bgeo");
+    for (bool attrs : {false, true}) {
+        write_bytes(f, bgeo_file(pts, attrs));
+        require_same(read_particles(f), pts);
+        write_bytes(f, gzip(bgeo_file(pts, attrs)));
+        require_same(read_particles(f), pts);
+    }
+}
+
+TEST_CASE("XYZ: raw little-endian float32 triplets; extension matched case-insensitively", "[io]") {
+    TempDir tmp;
+    const auto pts = sample_points();
+    std::string bytes(reinterpret_cast<const char*>(pts.data()), pts.size() * 4);
+    write_bytes(tmp.file("p.XYZ"), bytes);
+    require_same(read_particles(tmp.file("p.XYZ")), pts);
+}
+
+namespace {
+
+/// A file named `name` holding `bytes` must fail to read with a message naming it and `what`.
+void require_rejected(const TempDir& tmp, const std::string& name, const std::string& bytes, const std::string& what) {
+    const std::string f = tmp.file(name);
+    write_bytes(f, bytes);
+    INFO("file " << name);
+    REQUIRE_THROWS_AS(read_particles(f), trilevel::Error);
+    REQUIRE_THROWS_WITH(read_particles(f), Catch::Contains(name) && Catch::Contains(what));
+    try {
+        read_particles(f);
+    } catch (const trilevel::Error& e) {
+        REQUIRE(std::string(e.what()).find('\n') == std::string::npos);
+    }
+}
+
+std::string le_u64(std::uint64_t v) { return le_bytes(v); }
+
+}  // namespace
+
+TEST_CASE("hostile and malformed particle files are rejected with one-line errors naming the file", "[io]") {
+    TempDir tmp;
+    const auto pts = sample_points();
+    const std::string vtk_good = vtk_binary(pts, "4.2", "UNSTRUCTURED_GRID", false);
+    const std::string header = "# vtk DataFile Version 4.2\nx\nBINARY\nDATASET POLYDATA\n";
+
+    // legacy VTK
+    require_rejected(tmp, "truncated.vtk", vtk_good.substr(0, 100), "truncated");
+    require_rejected(tmp, "huge.vtk", header + "POINTS 1000000000000000000 float\n" + std::string(64, '\0'), "truncated");
+    require_rejected(tmp, "overflow.vtk", header + "POINTS 99999999999999999999999 float\n", "expected POINTS");
+    require_rejected(tmp, "nopoints.vtk", header + "VERTICES 0 0\n", "expected POINTS");
+    require_rejected(tmp, "badtype.vtk", header + "POINTS 1 quaternion\n", "unsupported POINTS type");
+    require_rejected(tmp, "nomagic.vtk", "hello\nworld\n", "not a legacy VTK file");
+    require_rejected(tmp, "badmode.vtk", "# vtk DataFile Version 4.2\nx\nTEXT\n", "ASCII or BINARY");
+    require_rejected(tmp, "nan.vtk", "# vtk DataFile Version 4.2\nx\nASCII\nDATASET POLYDATA\nPOINTS 2 float\n0 0 0\n1 nan 2\n", "non-finite");
+    require_rejected(tmp, "inf.vtk", header + "POINTS 1 float\n" + be_bytes(1.0f) + be_bytes(INFINITY) + be_bytes(0.0f), "non-finite");
+    require_rejected(tmp, "badnumber.vtk", "# vtk DataFile Version 4.2\nx\nASCII\nDATASET POLYDATA\nPOINTS 1 float\n0 zero 0\n", "line 6: malformed number");
+    require_rejected(tmp, "shortascii.vtk", "# vtk DataFile Version 4.2\nx\nASCII\nDATASET POLYDATA\nPOINTS 2 float\n0 0 0 1\n", "truncated ASCII");
+    require_rejected(tmp, "toolarge.vtk", "# vtk DataFile Version 4.2\nx\nASCII\nDATASET POLYDATA\nPOINTS 1 double\n1e300 0 0\n", "non-finite");
+
+    // VTU
+    const std::string vtu = make_vtu(pts, {"raw zlib", "appended", true});
+    require_rejected(tmp, "truncated.vtu", vtu.substr(0, vtu.size() - 120), "truncated");
+    VtuVariant b64v{"b64", "binary"};
+    std::string bad64 = make_vtu(pts, b64v);
+    bad64[bad64.find("format=\"binary\">") + 20] = '*';
+    require_rejected(tmp, "badbase64.vtu", bad64, "bad base64");
+    std::string badz = make_vtu(pts, {"zlib", "appended", true});
+    badz[badz.find('_') + 1 + 24 + 8 * 10 + 3] ^= 0x55;  // inside the first compressed block
+    require_rejected(tmp, "badzlib.vtu", badz, "zlib");
+    std::string huge = make_vtu(pts, {"raw", "appended"});
+    huge.replace(huge.find("NumberOfPoints=\"4\""), 18, "NumberOfPoints=\"1000000000000000000\"");
+    require_rejected(tmp, "hugepoints.vtu", huge, "NumberOfPoints");
+    std::string wrongsize = make_vtu(pts, {"raw", "appended"});
+    const std::size_t u = wrongsize.find('_', wrongsize.find("<AppendedData"));
+    wrongsize.replace(u + 1, 8, le_u64(1ull << 60));
+    require_rejected(tmp, "wrongsize.vtu", wrongsize, "expected 96");
+    require_rejected(tmp, "noxml.vtu", "just text", "no <VTKFile>");
+    std::string nanvtu = make_vtu({0, 0, 0, NAN, 1, 2}, {"ascii", "ascii"});
+    require_rejected(tmp, "nan.vtu", nanvtu, "particle 1");
+    std::string lzma = make_vtu(pts, b64v);
+    lzma.replace(lzma.find("header_type"), 0, "compressor=\"vtkLZMADataCompressor\" ");
+    require_rejected(tmp, "lzma.vtu", lzma, "unsupported compressor");
+
+    // BGEO
+    require_rejected(tmp, "magic.bgeo", gzip("BgeoX" + std::string(40, '\0')), "BgeoV");
+    require_rejected(tmp, "plainmagic.bgeo", "NotBgeo at all", "BgeoV");
+    require_rejected(tmp, "truncated.bgeo", gzip(bgeo_file(pts, true).substr(0, 150)), "truncated");
+    require_rejected(tmp, "badgzip.bgeo", gzip(bgeo_file(pts, true)).substr(0, 40), "gzip");
+    std::string version = bgeo_file(pts, false);
+    version.replace(5, 4, be_bytes(std::int32_t(9)));
+    require_rejected(tmp, "version.bgeo", version, "version 9");
+    std::string bighead = bgeo_file(pts, false);
+    bighead.replace(9, 4, be_bytes(std::int32_t(0x7fffffff)));
+    require_rejected(tmp, "hugecount.bgeo", bighead, "truncated point data");
+    std::vector<float> nanpts = pts;
+    nanpts[4] = NAN;
+    require_rejected(tmp, "nan.bgeo", gzip(bgeo_file(nanpts, true)), "non-finite");
+
+    // PLY
+    std::string nox = ply_file(pts, "binary_little_endian", false);
+    nox.replace(nox.find(" x\n"), 3, " w\n");
+    require_rejected(tmp, "nox.ply", nox, "lacks property x");
+    require_rejected(tmp, "noend.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n", "end_header");
+    require_rejected(tmp, "notply.ply", "plx\n", "not a PLY file");
+    const std::string plyhead = "ply\nformat binary_little_endian 1.0\nelement vertex 1000000000000000000\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
+    require_rejected(tmp, "huge.ply", plyhead + std::string(24, '\0'), "truncated");
+    const std::string plytrunc = ply_file(pts, "binary_big_endian", true);
+    require_rejected(tmp, "truncated.ply", plytrunc.substr(0, plytrunc.size() - 5), "truncated");
+    require_rejected(tmp, "badformat.ply", "ply\nformat binary_middle_endian 1.0\nend_header\n", "line 2");
+    require_rejected(tmp, "nan.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 inf 2\n", "non-finite");
+
+    // XYZ and generic
+    require_rejected(tmp, "odd.xyz", std::string(13, '\0'), "multiple of 12");
+    std::string nanxyz(12, '\0');
+    const float nanf = NAN;
+    std::memcpy(&nanxyz[4], &nanf, 4);
+    require_rejected(tmp, "nan.xyz", nanxyz, "particle 0");
+    require_rejected(tmp, "empty.vtk", "", "empty file");
+    require_rejected(tmp, "empty.xyz", "", "empty file");
+    require_rejected(tmp, "particles.txt", "1 2 3", "unknown particle file extension");
+}
+
+TEST_CASE("missing files and directories are clear errors", "[io]") {
+    TempDir tmp;
+    REQUIRE_THROWS_WITH(read_particles(tmp.file("absent.vtk")), Catch::Contains("absent.vtk") && Catch::Contains("no such file"));
+    std::filesystem::create_directories(tmp.path / "dir.vtk");
+    REQUIRE_THROWS_WITH(read_particles(tmp.file("dir.vtk")), Catch::Contains("dir.vtk") && Catch::Contains("is a directory"));
+}
