@@ -332,8 +332,9 @@ TEST_CASE("hostile and malformed particle files are rejected with one-line error
     bad64[bad64.find("format=\"binary\">") + 20] = '*';
     require_rejected(tmp, "badbase64.vtu", bad64, "bad base64");
     std::string badz = make_vtu(pts, {"zlib", "appended", true});
-    badz[badz.find('_') + 1 + 24 + 8 * 10 + 3] ^= 0x55;  // inside the first compressed block
-    require_rejected(tmp, "badzlib.vtu", badz, "zlib");
+    // header: 3 + 6 words of 8 bytes; then the first compressed block
+    badz[badz.find('_', badz.find("<AppendedData")) + 1 + 72 + 3] ^= 0x55;
+    require_rejected(tmp, "badzlib.vtu", badz, "bad zlib block 0");
     std::string huge = make_vtu(pts, {"raw", "appended"});
     huge.replace(huge.find("NumberOfPoints=\"4\""), 18, "NumberOfPoints=\"1000000000000000000\"");
     require_rejected(tmp, "hugepoints.vtu", huge, "NumberOfPoints");

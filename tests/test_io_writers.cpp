@@ -1,0 +1,145 @@
+// Particle and mesh writers: bit-exact round trips through the readers, atomic writes.
+#include <cmath>
+#include <cstring>
+#include <fstream>
+
+#include "test_support.hpp"
+#include "trilevel/io.hpp"
+
+using trilevel::test::TempDir;
+
+namespace {
+
+trilevel::ParticleSet awkward_particles() {
+    trilevel::ParticleSet p;
+    p.positions = {0.0f, -0.0f, 1.0f, 0.1f, -2.5e-3f, 3.4e38f, 1e-40f, 123456.789f, -7.0f, 0.33333334f, 42.0f, -1e-7f};
+    for (int i = 0; i < 3000; ++i) p.positions.push_back(std::sin(float(i)) * 1e3f + float(i) * 1e-3f);
+    return p;
+}
+
+/// Two tetrahedra sharing nothing, with levels 2 and 3.
+trilevel::Mesh small_mesh() {
+    trilevel::Mesh m;
+    m.positions = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 5.1f, 5.2f, 5.3f, 6.1f, 5, 5, 5, 6.7f, 5, 5, 5, 6.000001f};
+    m.triangles = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3, 4, 6, 5, 4, 5, 7, 4, 7, 6, 5, 6, 7};
+    m.vertex_level = {2, 2, 2, 2, 3, 3, 3, 2};
+    m.triangle_kind.assign(8, trilevel::TriangleKind::Level2);
+    return m;
+}
+
+bool same_bits(const std::vector<float>& a, const std::vector<float>& b) {
+    return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
+}
+
+std::vector<std::string> names_in(const std::filesystem::path& dir) {
+    std::vector<std::string> out;
+    for (const auto& e : std::filesystem::directory_iterator(dir)) out.push_back(e.path().filename().string());
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
+}  // namespace
+
+TEST_CASE("particle writers round-trip bit-exactly through the readers", "[io]") {
+    TempDir tmp;
+    const auto p = awkward_particles();
+    for (const std::string ext : {"xyz", "ply", "vtk"}) {
+        INFO(ext);
+        const std::string f = tmp.file("p." + ext);
+        trilevel::write_particles(f, p);
+        REQUIRE(same_bits(trilevel::read_particles(f).positions, p.positions));
+    }
+    REQUIRE(names_in(tmp.path) == std::vector<std::string>{"p.ply", "p.vtk", "p.xyz"});  // no temporaries left
+}
+
+TEST_CASE("empty particle sets round-trip", "[io]") {
+    TempDir tmp;
+    for (const std::string ext : {"ply", "vtk"}) {
+        const std::string f = tmp.file("e." + ext);
+        trilevel::write_particles(f, {});
+        REQUIRE(trilevel::read_particles(f).size() == 0);
+    }
+}
+
+TEST_CASE("mesh writers round-trip positions, triangles and levels", "[io]") {
+    TempDir tmp;
+    const auto m = small_mesh();
+    for (const std::string ext : {"ply", "obj", "vtk"}) {
+        INFO(ext);
+        const std::string f = tmp.file("m." + ext);
+        trilevel::write_mesh(f, m);
+        const auto r = trilevel::read_mesh(f);
+        REQUIRE(same_bits(r.positions, m.positions));
+        REQUIRE(r.triangles == m.triangles);
+        if (ext != "obj") REQUIRE(r.vertex_level == m.vertex_level);
+    }
+    trilevel::MeshWriteOptions colour;
+    colour.color_levels = true;
+    trilevel::write_mesh(tmp.file("c.ply"), m, colour);
+    const auto r = trilevel::read_mesh(tmp.file("c.ply"));
+    REQUIRE(r.vertex_level == m.vertex_level);
+    REQUIRE(same_bits(r.positions, m.positions));
+    trilevel::MeshWriteOptions plain;
+    plain.vertex_level = false;
+    trilevel::write_mesh(tmp.file("p.ply"), m, plain);
+    REQUIRE(trilevel::read_mesh(tmp.file("p.ply")).vertex_level.empty());
+    REQUIRE(trilevel::read_mesh(tmp.file("p.ply")).triangles == m.triangles);
+}
+
+TEST_CASE("PLY mesh header declares level and colours as documented", "[io]") {
+    TempDir tmp;
+    trilevel::MeshWriteOptions o;
+    o.color_levels = true;
+    trilevel::write_mesh(tmp.file("c.ply"), small_mesh(), o);
+    std::ifstream in(tmp.file("c.ply"), std::ios::binary);
+    std::string all((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::string head = all.substr(0, all.find("end_header"));
+    CHECK(head.find("format binary_little_endian 1.0") != std::string::npos);
+    CHECK(head.find("property uchar level\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n") != std::string::npos);
+    CHECK(head.find("element face 8\nproperty list uchar uint vertex_indices") != std::string::npos);
+    // first vertex: 12 bytes of position, level 2, then green
+    const std::size_t body = all.find("end_header\n") + 11;
+    CHECK(static_cast<unsigned char>(all[body + 12]) == 2);
+    CHECK(static_cast<unsigned char>(all[body + 14]) == 170);
+    CHECK(static_cast<unsigned char>(all[body + 13]) == 0);
+}
+
+TEST_CASE("read_mesh accepts ascii PLY and OBJ polygons with negative and slashed indices", "[io]") {
+    TempDir tmp;
+    std::ofstream(tmp.file("a.ply")) << "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+                                        "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                                        "0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n";
+    auto a = trilevel::read_mesh(tmp.file("a.ply"));
+    REQUIRE(a.triangles == std::vector<std::uint32_t>{0, 1, 2, 0, 2, 3});
+    std::ofstream(tmp.file("q.obj")) << "v 0 0 0\nv 1 0 0\nvt 0 0\nv 1 1 0\nf 1/1 2/1 -1/1\n";
+    REQUIRE(trilevel::read_mesh(tmp.file("q.obj")).triangles == std::vector<std::uint32_t>{0, 1, 2});
+    std::ofstream(tmp.file("bad.obj")) << "v 0 0 0\nf 1 2 3\n";
+    REQUIRE_THROWS_WITH(trilevel::read_mesh(tmp.file("bad.obj")), Catch::Contains("bad.obj") && Catch::Contains("line 2"));
+}
+
+TEST_CASE("writes are atomic: clear errors, no partial or temporary files", "[io]") {
+    TempDir tmp;
+    const auto p = awkward_particles();
+    const auto m = small_mesh();
+    REQUIRE_THROWS_WITH(trilevel::write_particles(tmp.file("missing/p.ply"), p),
+                        Catch::Contains("missing/p.ply") && Catch::Contains("does not exist"));
+    REQUIRE_THROWS_WITH(trilevel::write_mesh(tmp.file("missing/m.ply"), m), Catch::Contains("does not exist"));
+    REQUIRE_THROWS_WITH(trilevel::write_mesh(tmp.file("m.stl"), m), Catch::Contains("m.stl") && Catch::Contains("extension"));
+    REQUIRE_THROWS_WITH(trilevel::write_particles(tmp.file("p.bgeo"), p), Catch::Contains("extension"));
+    std::filesystem::create_directories(tmp.path / "dir.ply");
+    REQUIRE_THROWS_WITH(trilevel::write_mesh(tmp.file("dir.ply"), m), Catch::Contains("is a directory"));
+    auto nan = p;
+    nan.positions[7] = NAN;
+    REQUIRE_THROWS_WITH(trilevel::write_particles(tmp.file("nan.xyz"), nan), Catch::Contains("non-finite"));
+    auto broken = m;
+    broken.triangles[5] = 99;
+    REQUIRE_THROWS_WITH(trilevel::write_mesh(tmp.file("broken.obj"), broken), Catch::Contains("references vertex 99"));
+    REQUIRE(names_in(tmp.path) == std::vector<std::string>{"dir.ply"});
+
+    // an existing file is replaced whole
+    trilevel::write_particles(tmp.file("p.xyz"), p);
+    trilevel::ParticleSet one;
+    one.positions = {1, 2, 3};
+    trilevel::write_particles(tmp.file("p.xyz"), one);
+    REQUIRE(std::filesystem::file_size(tmp.path / "p.xyz") == 12);
+}
