@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <utility>
 
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
@@ -34,6 +35,7 @@ struct ChunkOut {
 struct Scratch {
     std::vector<float> values;
     std::vector<std::int32_t> slots;
+    std::vector<std::pair<std::uint64_t, std::uint64_t>> home;  // key, home slot
 };
 
 // The crossing on the unit edge from `lower` along `axis` with end values va, vb (DESIGN §7);
@@ -68,19 +70,36 @@ private:
     void stitch(const CoarseCell& cell, Scratch& s, ChunkOut& out) const;
 };
 
+// Two passes so the (cache-missing) hash probes of a cell overlap: prefetch every home slot, then probe.
 void CellMesher::gather(const CoarseCell& cell, int n, Scratch& s) const {
     const int st = stride(cell.level), np = n + 1;
     const glm::ivec3 base = cell.coord * frame_.coarse_steps;
-    s.values.resize(std::size_t(np) * np * np);
+    const std::size_t count = std::size_t(np) * np * np;
+    const std::uint64_t* keys = field_.keys().data();
+    const float* values = field_.values().data();
+    const std::uint64_t mask = field_.capacity() - 1;
+    s.values.resize(count);
+    s.home.resize(count);
     std::size_t i = 0;
     for (int z = 0; z < np; ++z)
         for (int y = 0; y < np; ++y)
-            for (int x = 0; x < np; ++x) {
-                const float* v = field_.find(base + st * glm::ivec3(x, y, z));
-                if (!v) throw Error("triangulation: a fine point of a surface cell is missing from the map");
-                s.values[i++] = *v;
+            for (int x = 0; x < np; ++x, ++i) {
+                const std::uint64_t key = lattice::pack(base + st * glm::ivec3(x, y, z));
+                s.home[i] = {key, lattice::hash(key) & mask};
+                __builtin_prefetch(keys + s.home[i].second);
+                __builtin_prefetch(values + s.home[i].second);
             }
-    s.slots.assign(s.values.size() * (cell.level == 2 ? 6 : 3), -1);
+    for (i = 0; i < count; ++i) {
+        const std::uint64_t key = s.home[i].first;
+        std::uint64_t slot = s.home[i].second;
+        while (keys[slot] != key) {
+            if (keys[slot] == lattice::kEmptyKey)
+                throw Error("triangulation: a fine point of a surface cell is missing from the map");
+            slot = (slot + 1) & mask;
+        }
+        s.values[i] = values[slot];
+    }
+    s.slots.assign(count * (cell.level == 2 ? 6 : 3), -1);
 }
 
 void CellMesher::mesh(const CoarseCell& cell, Scratch& s, ChunkOut& out) const {
