@@ -52,19 +52,19 @@ __kernel void bin_gather(__global const uint* order, uint n, __global const floa
 
 // Neighbour loop over the 27 bins around `x`; used by every particle and grid-point stage.
 // BODY sees `float4 pj` and `uint j` (index into sorted arrays).
-#define FOR_EACH_NEIGHBOUR_BIN(x, inv_cell, bin_keys, bin_mask, range, sorted, BODY)              \
+#define FOR_EACH_NEIGHBOUR_BIN(X_, INV_CELL_, KEYS_, MASK_, RANGE_, SORTED_, BODY)              \
     {                                                                                                  \
-        int3 c0_ = cell_of((x), (inv_cell));                                                 \
+        int3 c0_ = cell_of((X_), (INV_CELL_));                                                 \
         for (int dz_ = -1; dz_ <= 1; ++dz_)                                                            \
             for (int dy_ = -1; dy_ <= 1; ++dy_)                                                        \
                 for (int dx_ = -1; dx_ <= 1; ++dx_) {                                                  \
                     int3 c_ = c0_ + (int3)(dx_, dy_, dz_);                                             \
                     if (!key_in_range(c_)) continue;                                                   \
-                    long s_ = hash_find((bin_keys), (bin_mask), pack_key(c_));                          \
+                    long s_ = hash_find((KEYS_), (MASK_), pack_key(c_));                          \
                     if (s_ < 0) continue;                                                              \
-                    uint2 r_ = (range)[s_];                                                            \
+                    uint2 r_ = (RANGE_)[s_];                                                            \
                     for (uint j = r_.x; j < r_.x + r_.y; ++j) {                                        \
-                        float4 pj = (sorted)[j];                                                       \
+                        float4 pj = (SORTED_)[j];                                                       \
                         BODY                                                                           \
                     }                                                                                  \
                 }                                                                                      \
