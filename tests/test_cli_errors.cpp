@@ -1,0 +1,119 @@
+// CLI error paths: every failure is one stderr line "trilevel: error: ...", a non-zero exit
+// code and no output file. Only paths that fail before reconstruction are exercised here.
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+#include <sys/wait.h>
+
+#include "test_support.hpp"
+#include "trilevel/io.hpp"
+
+using trilevel::test::TempDir;
+
+namespace {
+
+struct CliResult {
+    int code = -1;
+    std::string out, err;
+};
+
+std::string slurp(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+/// Runs the CLI with `args` (already shell-quoted where needed), capturing both streams.
+CliResult run_cli(const TempDir& tmp, const std::string& args) {
+    const std::string out = tmp.file("stdout.txt"), err = tmp.file("stderr.txt");
+    const std::string cmd = std::string("'") + TRILEVEL_CLI + "' " + args + " >'" + out + "' 2>'" + err + "'";
+    const int rc = std::system(cmd.c_str());
+    CliResult r;
+    r.code = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+    r.out = slurp(out);
+    r.err = slurp(err);
+    return r;
+}
+
+/// The command must fail with exactly one "trilevel: error:" line, and `output` must not exist.
+void require_cli_error(const TempDir& tmp, const std::string& args, const std::string& output, const std::string& what) {
+    INFO("trilevel " << args);
+    const CliResult r = run_cli(tmp, args);
+    INFO("stderr: " << r.err);
+    CHECK(r.code != 0);
+    CHECK(r.err.rfind("trilevel: error: ", 0) == 0);
+    CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+    CHECK(r.err.back() == '\n');
+    CHECK(r.err.find(what) != std::string::npos);
+    if (!output.empty()) CHECK_FALSE(std::filesystem::exists(output));
+}
+
+}  // namespace
+
+TEST_CASE("CLI: reconstruct rejects bad inputs and parameters before writing anything", "[cli]") {
+    TempDir tmp;
+    const std::string in = tmp.file("in.xyz"), out = tmp.file("out.ply");
+    trilevel::write_particles(in, trilevel::generate_scene("block", 0.025f));
+    trilevel::ParticleSet nan;
+    nan.positions = {0, 0, 0, 1, NAN, 1};
+    trilevel::write_particles(tmp.file("ok.ply"), {});
+    {
+        std::ofstream f(tmp.file("nan.xyz"), std::ios::binary);
+        f.write(reinterpret_cast<const char*>(nan.positions.data()), 24);
+    }
+    const std::string base = "reconstruct '" + in + "' -o '" + out + "' ";
+    require_cli_error(tmp, "reconstruct '" + tmp.file("absent.vtk") + "' -o '" + out + "' -r 0.025", out, "absent.vtk: no such file");
+    require_cli_error(tmp, "reconstruct '" + tmp.file("nan.xyz") + "' -o '" + out + "' -r 0.025", out, "non-finite");
+    require_cli_error(tmp, "reconstruct '" + tmp.path.string() + "' -o '" + out + "' -r 0.025", out, "");
+    require_cli_error(tmp, base + "-r 0", out, "radius (-r) must be > 0");
+    require_cli_error(tmp, base + "-r -1", out, "radius (-r) must be > 0");
+    require_cli_error(tmp, base + "-r nan", out, "radius (-r) must be finite");
+    require_cli_error(tmp, base + "-r inf", out, "radius (-r) must be finite");
+    require_cli_error(tmp, base + "-r abc", out, "radius (-r) must be a number");
+    require_cli_error(tmp, base + "-r 1e60", out, "float range");
+    require_cli_error(tmp, base + "-r 0.025 --cell 3", out, "4/cell must be an integer");
+    require_cli_error(tmp, base + "-r 0.025 --cell 0", out, "cell (--cell) must be > 0");
+    require_cli_error(tmp, base + "-r 0.025 --kernel-radius -4", out, "kernel radius");
+    require_cli_error(tmp, base + "-r 0.025 --curvature-threshold nan", out, "curvature threshold");
+    require_cli_error(tmp, base + "-r 0.025 --mode fancy", out, "--mode must be adaptive or uniform");
+    require_cli_error(tmp, base + "-r 0.025 --memory-limit 2Q", out, "--memory-limit");
+    require_cli_error(tmp, base, out, "radius");
+    require_cli_error(tmp, "reconstruct '" + in + "' -o '" + tmp.file("missing/out.ply") + "' -r 0.025", tmp.file("missing/out.ply"),
+                      "does not exist");
+    require_cli_error(tmp, "reconstruct '" + in + "' -o '" + tmp.file("out.stl") + "' -r 0.025", tmp.file("out.stl"), "extension");
+    require_cli_error(tmp, base + "-r 0.025 --stats '" + tmp.file("missing/s.json") + "'", out, "does not exist");
+}
+
+TEST_CASE("CLI: generate, info and usage errors", "[cli]") {
+    TempDir tmp;
+    const std::string out = tmp.file("scene.ply");
+    require_cli_error(tmp, "generate teapot -o '" + out + "' --radius 0.025", out, "unknown scene 'teapot'");
+    require_cli_error(tmp, "generate block -o '" + out + "' --radius 0", out, "radius");
+    require_cli_error(tmp, "generate block -o '" + tmp.file("missing/s.ply") + "' --radius 0.025", tmp.file("missing/s.ply"), "does not exist");
+    require_cli_error(tmp, "generate block -o '" + tmp.file("s.obj") + "' --radius 0.025", tmp.file("s.obj"), "extension");
+    require_cli_error(tmp, "info '" + tmp.file("absent.bgeo") + "'", "", "absent.bgeo");
+    require_cli_error(tmp, "", "", "");
+    require_cli_error(tmp, "frobnicate", "", "");
+    require_cli_error(tmp, "reconstruct --no-such-option", "", "");
+}
+
+TEST_CASE("CLI: generate and info succeed on good input", "[cli]") {
+    TempDir tmp;
+    const std::string out = tmp.file("scene.vtk");
+    const CliResult g = run_cli(tmp, "generate sphere -o '" + out + "' --radius 0.05 --seed 3");
+    REQUIRE(g.code == 0);
+    CHECK(g.err.empty());
+    CHECK(g.out.find("14328 particles") != std::string::npos);
+    REQUIRE(trilevel::read_particles(out).size() == 14328);
+    const CliResult i = run_cli(tmp, "info '" + out + "'");
+    REQUIRE(i.code == 0);
+    CHECK(i.out.find("particles: 14328") != std::string::npos);
+    const auto at = i.out.find("spacing: ");
+    REQUIRE(at != std::string::npos);
+    const double spacing = std::atof(i.out.c_str() + at + 9);
+    CHECK(spacing > 0.09);  // 2r = 0.1, less a few percent of jitter
+    CHECK(spacing < 0.11);
+}
