@@ -1,5 +1,6 @@
 #include "io/io_common.hpp"
 
+#include <atomic>
 #include <cctype>
 #include <cerrno>
 #include <charconv>
@@ -138,6 +139,9 @@ AtomicWriter::AtomicWriter(const std::string& path) : path_(path) {
     name += target.filename().string();
     name += ".tmp.";
     name += std::to_string(::getpid());
+    static std::atomic<unsigned> counter{0};  // distinct temporaries for writers in several threads
+    name += '.';
+    name += std::to_string(counter++);
     temp_ = (dir / name).string();
     file_ = std::fopen(temp_.c_str(), "wb");
     if (!file_) fail(path, std::string("cannot create output file: ") + std::strerror(errno));
