@@ -108,21 +108,19 @@ double total_ms(const trilevel::Stats& s, double wall_ms) {
     return wall_ms;
 }
 
-int run_reconstruct(const ReconstructArgs& a) {
-    const trilevel::Params params = make_params(a);
-    check_output(a.output, {"ply", "obj", "vtk"}, "mesh");
-    if (!a.stats.empty()) check_output(a.stats, {"json"}, "statistics");
+/// One input file -> one mesh (and stats) file; prints the summary unless quiet.
+void reconstruct_file(trilevel::Reconstructor& rec, const trilevel::Params& params, const ReconstructArgs& a,
+                      const std::string& input, const std::string& output, const std::string& stats_path) {
     const auto start = std::chrono::steady_clock::now();
-    const trilevel::ParticleSet particles = trilevel::read_particles(a.input);
-    if (particles.size() == 0) throw trilevel::Error(a.input + ": holds no particles");
-    trilevel::Reconstructor rec(a.device);
+    const trilevel::ParticleSet particles = trilevel::read_particles(input);
+    if (particles.size() == 0) throw trilevel::Error(input + ": holds no particles");
     trilevel::Stats stats;
     const trilevel::Mesh mesh = rec.reconstruct(particles.positions.data(), particles.size(), params, &stats);
     trilevel::MeshWriteOptions options;
     options.color_levels = a.color_levels;
-    trilevel::write_mesh(a.output, mesh, options);
-    if (!a.stats.empty()) {
-        trilevel::io::AtomicWriter out(a.stats);
+    trilevel::write_mesh(output, mesh, options);
+    if (!stats_path.empty()) {
+        trilevel::io::AtomicWriter out(stats_path);
         out.write(trilevel::stats_to_json(stats, params));
         out.write("\n");
         out.commit();
@@ -132,7 +130,63 @@ int run_reconstruct(const ReconstructArgs& a) {
         std::printf("particles: %zu\nsurface cells: %zu (level 2: %zu, level 3: %zu)\ntriangles: %zu\nclosed: %s\n"
                     "total time: %.1f ms\noutput: %s\n",
                     particles.size(), stats.surface_cells, stats.surface_cells_level2, stats.surface_cells_level3,
-                    mesh.triangle_count(), stats.closed ? "yes" : "no", total_ms(stats, wall), a.output.c_str());
+                    mesh.triangle_count(), stats.closed ? "yes" : "no", total_ms(stats, wall), output.c_str());
+}
+
+std::string replace_braces(const std::string& pattern, const std::string& frame) {
+    const auto at = pattern.find("{}");
+    return at == std::string::npos ? pattern : pattern.substr(0, at) + frame + pattern.substr(at + 2);
+}
+
+/// The frame numbers (as written, e.g. "007") of the files matching a "{}" pattern, in numeric order.
+std::vector<std::string> find_frames(const std::string& pattern) {
+    const std::filesystem::path p(pattern);
+    const std::string name = p.filename().string();
+    const auto at = name.find("{}");
+    if (at == std::string::npos) throw UsageError(pattern + ": '{}' must be in the file name, not in a directory");
+    const std::string prefix = name.substr(0, at), suffix = name.substr(at + 2);
+    const auto dir = p.parent_path().empty() ? std::filesystem::path(".") : p.parent_path();
+    std::error_code ec;
+    if (!std::filesystem::is_directory(dir, ec)) throw trilevel::Error(pattern + ": directory '" + dir.string() + "' does not exist");
+    std::vector<std::string> frames;
+    for (const auto& e : std::filesystem::directory_iterator(dir, ec)) {
+        const std::string f = e.path().filename().string();
+        if (f.size() <= prefix.size() + suffix.size() || f.compare(0, prefix.size(), prefix) != 0 ||
+            f.compare(f.size() - suffix.size(), suffix.size(), suffix) != 0)
+            continue;
+        const std::string mid = f.substr(prefix.size(), f.size() - prefix.size() - suffix.size());
+        if (std::all_of(mid.begin(), mid.end(), [](char c) { return c >= '0' && c <= '9'; })) frames.push_back(mid);
+    }
+    std::sort(frames.begin(), frames.end(), [](const std::string& x, const std::string& y) {
+        const auto nx = std::stoull(x.substr(0, 19)), ny = std::stoull(y.substr(0, 19));
+        return nx != ny ? nx < ny : x < y;
+    });
+    if (frames.empty()) throw trilevel::Error(pattern + ": no frame files match");
+    return frames;
+}
+
+int run_reconstruct(const ReconstructArgs& a) {
+    const trilevel::Params params = make_params(a);
+    const bool sequence = a.input.find("{}") != std::string::npos;
+    if (sequence && a.output.find("{}") == std::string::npos)
+        throw UsageError("-o must contain '{}' when the input is a frame sequence");
+    if (sequence && !a.stats.empty() && a.stats.find("{}") == std::string::npos)
+        throw UsageError("--stats must contain '{}' when the input is a frame sequence");
+    check_output(replace_braces(a.output, "0"), {"ply", "obj", "vtk"}, "mesh");
+    if (!a.stats.empty()) check_output(replace_braces(a.stats, "0"), {"json"}, "statistics");
+    if (!sequence) {
+        trilevel::Reconstructor rec(a.device);
+        reconstruct_file(rec, params, a, a.input, a.output, a.stats);
+        return 0;
+    }
+    const auto frames = find_frames(a.input);
+    trilevel::Reconstructor rec(a.device);  // compiled kernels and buffers are reused across frames
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+        if (!a.quiet) std::printf("frame %s (%zu of %zu)\n", frames[i].c_str(), i + 1, frames.size());
+        reconstruct_file(rec, params, a, replace_braces(a.input, frames[i]), replace_braces(a.output, frames[i]),
+                         replace_braces(a.stats, frames[i]));
+        std::fflush(stdout);
+    }
     return 0;
 }
 
@@ -257,8 +311,8 @@ int run(int argc, char** argv) {
 
     ReconstructArgs ra;
     auto* rec = app.add_subcommand("reconstruct", "Reconstructs a closed triangle mesh from a particle file");
-    rec->add_option("input", ra.input, "Particle file (.vtk, .vtu, .bgeo, .ply, .xyz)")->required();
-    rec->add_option("-o,--output", ra.output, "Mesh file (.ply, .obj, .vtk)")->required();
+    rec->add_option("input", ra.input, "Particle file (.vtk, .vtu, .bgeo, .ply, .xyz); '{}' in the name: frame sequence")->required();
+    rec->add_option("-o,--output", ra.output, "Mesh file (.ply, .obj, .vtk); '{}' is replaced by the frame number")->required();
     rec->add_option("-r,--radius", ra.radius, "Particle radius r in world units")->required();
     rec->add_option("--kernel-radius", ra.kernel_radius, "Kernel support in multiples of r (default 4)");
     rec->add_option("--mode", ra.mode, "adaptive (default) or uniform");
