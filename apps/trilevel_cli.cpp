@@ -216,47 +216,70 @@ int run_generate(const GenerateArgs& a) {
 // ---------------------------------------------------------------------------------------------
 // info
 
-/// Median nearest-neighbour distance over up to 2000 particles, using a hash grid.
+using Grid = std::unordered_map<std::uint64_t, std::vector<std::uint32_t>>;
+
+std::uint64_t cell_key(std::int64_t x, std::int64_t y, std::int64_t z) {
+    return (static_cast<std::uint64_t>(x) * 73856093u) ^ (static_cast<std::uint64_t>(y) * 19349663u) ^
+           (static_cast<std::uint64_t>(z) * 83492791u);
+}
+
+/// Buckets the particles into cells of width h; returns the largest bucket size.
+std::size_t fill_grid(const std::vector<float>& p, const float lo[3], double h, Grid& grid) {
+    grid.clear();
+    std::size_t largest = 0;
+    for (std::size_t i = 0; i < p.size() / 3; ++i) {
+        auto& bucket = grid[cell_key(static_cast<std::int64_t>((p[3 * i] - lo[0]) / h), static_cast<std::int64_t>((p[3 * i + 1] - lo[1]) / h),
+                                     static_cast<std::int64_t>((p[3 * i + 2] - lo[2]) / h))];
+        bucket.push_back(static_cast<std::uint32_t>(i));
+        largest = std::max(largest, bucket.size());
+    }
+    return largest;
+}
+
+/// Distance from particle i to its nearest other particle, searching up to 64 rings of cells.
+double nearest(const std::vector<float>& p, const float lo[3], double h, const Grid& grid, std::size_t i) {
+    std::int64_t c[3];
+    for (int k = 0; k < 3; ++k) c[k] = static_cast<std::int64_t>((p[3 * i + k] - lo[k]) / h);
+    double best = std::numeric_limits<double>::infinity();
+    // a point first seen in ring r lies at least (r - 1) h away: stop once best is closer than that
+    for (std::int64_t r = 0; r <= 64 && best > (r - 1) * h; ++r)
+        for (std::int64_t dx = -r; dx <= r; ++dx)
+            for (std::int64_t dy = -r; dy <= r; ++dy)
+                for (std::int64_t dz = -r; dz <= r; ++dz) {
+                    if (std::max({std::abs(dx), std::abs(dy), std::abs(dz)}) != r) continue;
+                    auto it = grid.find(cell_key(c[0] + dx, c[1] + dy, c[2] + dz));
+                    if (it == grid.end()) continue;
+                    for (std::uint32_t j : it->second) {
+                        if (j == i) continue;
+                        double d2 = 0;
+                        for (int k = 0; k < 3; ++k) d2 += (double(p[3 * j + k]) - p[3 * i + k]) * (double(p[3 * j + k]) - p[3 * i + k]);
+                        best = std::min(best, std::sqrt(d2));
+                    }
+                }
+    return best;
+}
+
+/// Median nearest-neighbour distance over up to 2000 particles, using a hash grid whose cells
+/// start at about one particle each and shrink while some cell is crowded.
 double estimate_spacing(const std::vector<float>& p, const float lo[3], const float hi[3]) {
     const std::size_t n = p.size() / 3;
     if (n < 2) return 0;
-    double volume = 1;
-    for (int k = 0; k < 3; ++k) volume *= std::max(1e-12, double(hi[k]) - lo[k]);
-    const double h = std::max(std::cbrt(volume / double(n)), 1e-12);  // about one particle per cell
-    auto cell = [&](std::size_t i, int k) { return static_cast<std::int64_t>(std::floor((p[3 * i + k] - lo[k]) / h)); };
-    auto key = [](std::int64_t x, std::int64_t y, std::int64_t z) {
-        return (static_cast<std::uint64_t>(x) * 73856093u) ^ (static_cast<std::uint64_t>(y) * 19349663u) ^
-               (static_cast<std::uint64_t>(z) * 83492791u);
-    };
-    std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> grid;
-    for (std::size_t i = 0; i < n; ++i) grid[key(cell(i, 0), cell(i, 1), cell(i, 2))].push_back(static_cast<std::uint32_t>(i));
-    std::int64_t max_ring = 1;
-    for (int k = 0; k < 3; ++k) max_ring = std::max<std::int64_t>(max_ring, static_cast<std::int64_t>((hi[k] - lo[k]) / h) + 1);
+    double extent = 0, volume = 1;
+    for (int k = 0; k < 3; ++k) extent = std::max(extent, double(hi[k]) - lo[k]);
+    if (extent <= 0) return 0;
+    for (int k = 0; k < 3; ++k) volume *= std::max(double(hi[k]) - lo[k], 1e-3 * extent);  // flat sets stay 3D
+    double h = std::cbrt(volume / double(n));
+    Grid grid;
+    for (int halvings = 0; fill_grid(p, lo, h, grid) > 64 && halvings < 10; ++halvings) h *= 0.5;
     const std::size_t samples = std::min<std::size_t>(n, 2000), stride = n / samples;
-    std::vector<double> nearest;
+    std::vector<double> found;
     for (std::size_t s = 0; s < samples; ++s) {
-        const std::size_t i = s * stride;
-        const std::int64_t c[3] = {cell(i, 0), cell(i, 1), cell(i, 2)};
-        double best = std::numeric_limits<double>::infinity();
-        for (std::int64_t r = 0; r <= max_ring && best > (r - 1) * h; ++r)  // rings until no closer point can exist
-            for (std::int64_t dx = -r; dx <= r; ++dx)
-                for (std::int64_t dy = -r; dy <= r; ++dy)
-                    for (std::int64_t dz = -r; dz <= r; ++dz) {
-                        if (std::max({std::abs(dx), std::abs(dy), std::abs(dz)}) != r) continue;
-                        auto it = grid.find(key(c[0] + dx, c[1] + dy, c[2] + dz));
-                        if (it == grid.end()) continue;
-                        for (std::uint32_t j : it->second) {
-                            if (j == i) continue;
-                            double d2 = 0;
-                            for (int k = 0; k < 3; ++k) d2 += (double(p[3 * j + k]) - p[3 * i + k]) * (double(p[3 * j + k]) - p[3 * i + k]);
-                            best = std::min(best, std::sqrt(d2));
-                        }
-                    }
-        if (std::isfinite(best)) nearest.push_back(best);
+        const double d = nearest(p, lo, h, grid, s * stride);
+        if (std::isfinite(d)) found.push_back(d);
     }
-    if (nearest.empty()) return 0;
-    std::nth_element(nearest.begin(), nearest.begin() + nearest.size() / 2, nearest.end());
-    return nearest[nearest.size() / 2];
+    if (found.empty()) return 0;
+    std::nth_element(found.begin(), found.begin() + found.size() / 2, found.end());
+    return found[found.size() / 2];
 }
 
 int run_info(const std::string& input) {

@@ -394,3 +394,9 @@ TEST_CASE("missing files and directories are clear errors", "[io]") {
     std::filesystem::create_directories(tmp.path / "dir.vtk");
     REQUIRE_THROWS_WITH(read_particles(tmp.file("dir.vtk")), Catch::Contains("dir.vtk") && Catch::Contains("is a directory"));
 }
+
+TEST_CASE("a missing file is reported as missing even with an unknown extension", "[io]") {
+    TempDir tmp;
+    REQUIRE_THROWS_WITH(read_particles(tmp.file("absent.abc")), Catch::Contains("absent.abc: no such file"));
+    REQUIRE_THROWS_WITH(trilevel::read_mesh(tmp.file("absent.stl")), Catch::Contains("absent.stl: no such file"));
+}

@@ -16,11 +16,17 @@ namespace trilevel::io {
 
 void fail(const std::string& path, const std::string& what) { throw Error(path + ": " + what); }
 
-std::string read_file(const std::string& path) {
+void require_file(const std::string& path) {
     std::error_code ec;
     const fs::file_status st = fs::status(path, ec);
     if (!fs::exists(st)) fail(path, "no such file");
     if (fs::is_directory(st)) fail(path, "is a directory, expected a file");
+}
+
+std::string read_file(const std::string& path) {
+    require_file(path);
+    std::error_code ec;
+    const fs::file_status st = fs::status(path, ec);
     std::FILE* f = std::fopen(path.c_str(), "rb");
     if (!f) fail(path, std::string("cannot open: ") + std::strerror(errno));
     std::string data;

@@ -17,6 +17,9 @@ namespace trilevel::io {
 /// Throws Error "<path>: <what>".
 [[noreturn]] void fail(const std::string& path, const std::string& what);
 
+/// Error for a missing file or a directory.
+void require_file(const std::string& path);
+
 /// The whole file; Error for a missing file, a directory, an empty or unreadable file.
 std::string read_file(const std::string& path);
 

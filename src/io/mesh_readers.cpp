@@ -101,6 +101,7 @@ Mesh read_obj_mesh(const std::string& path, const std::string& data) {
 
 Mesh read_mesh(const std::string& path) {
     using namespace io;
+    require_file(path);  // a missing file is reported as such, whatever its name
     const std::string ext = extension_of(path);
     if (ext != "ply" && ext != "obj" && ext != "vtk")
         fail(path, "unknown mesh file extension '" + ext + "', expected .ply, .obj or .vtk");

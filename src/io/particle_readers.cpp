@@ -15,6 +15,7 @@ std::vector<float> read_xyz_points(const std::string& path, const std::string& d
 
 ParticleSet read_particles(const std::string& path) {
     using namespace io;
+    require_file(path);  // a missing file is reported as such, whatever its name
     const std::string ext = extension_of(path);
     using Reader = std::vector<float> (*)(const std::string&, const std::string&);
     Reader reader = nullptr;
