@@ -1,9 +1,9 @@
 // Triangulation of the coarse surface cells (paper §3.3, DESIGN §6-7); see surface_mesher.hpp.
 //
 // Phase 1, parallel over fixed chunks of cells: gather each cell's (n+1)^3 values, run marching
-// cubes with cell-local vertex slots, stitch its transition faces (level-3 side). Phase 2,
-// sequential: number vertices in chunk order; only vertices on a cell boundary go through a hash.
-// Phase 3, parallel: rewrite triangle indices into the output arrays.
+// cubes with cell-local vertex slots, stitch its transition faces (level-3 side). Phase 2, in
+// chunk order while later chunks are still meshed (a TBB pipeline): number vertices; only those
+// on a cell boundary go through a hash. Phase 3, parallel: rewrite triangle indices.
 #include "surface_mesher.hpp"
 
 #include <algorithm>
@@ -14,6 +14,8 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_pipeline.h>
+#include <tbb/task_arena.h>
 
 #include "crack_stitch.hpp"
 #include "marching_cubes.hpp"
@@ -66,12 +68,13 @@ private:
         const auto it = std::lower_bound(cell_keys_.begin(), cell_keys_.end(), lattice::pack(c));
         return it != cell_keys_.end() && *it == lattice::pack(c) ? cell_levels_[it - cell_keys_.begin()] : 0;
     }
-    void gather(const CoarseCell& cell, int n, Scratch& s) const;
+    bool gather(const CoarseCell& cell, int n, Scratch& s) const;
     void stitch(const CoarseCell& cell, Scratch& s, ChunkOut& out) const;
 };
 
-// Two passes so the (cache-missing) hash probes of a cell overlap: prefetch every home slot, then probe.
-void CellMesher::gather(const CoarseCell& cell, int n, Scratch& s) const {
+// Two passes so the (cache-missing) hash probes of a cell overlap: prefetch every home slot, then
+// probe. Returns false when all values have one sign: no crossing in the cell or on its faces.
+bool CellMesher::gather(const CoarseCell& cell, int n, Scratch& s) const {
     const int st = stride(cell.level), np = n + 1;
     const glm::ivec3 base = cell.coord * frame_.coarse_steps;
     const std::size_t count = std::size_t(np) * np * np;
@@ -80,7 +83,7 @@ void CellMesher::gather(const CoarseCell& cell, int n, Scratch& s) const {
     const std::uint64_t mask = field_.capacity() - 1;
     s.values.resize(count);
     s.home.resize(count);
-    std::size_t i = 0;
+    std::size_t i = 0, inside = 0;
     for (int z = 0; z < np; ++z)
         for (int y = 0; y < np; ++y)
             for (int x = 0; x < np; ++x, ++i) {
@@ -98,15 +101,18 @@ void CellMesher::gather(const CoarseCell& cell, int n, Scratch& s) const {
             slot = (slot + 1) & mask;
         }
         s.values[i] = values[slot];
+        inside += mc::inside(values[slot]);
     }
+    if (inside == 0 || inside == count) return false;
     s.slots.assign(count * (cell.level == 2 ? 6 : 3), -1);
+    return true;
 }
 
 void CellMesher::mesh(const CoarseCell& cell, Scratch& s, ChunkOut& out) const {
     const bool l2 = cell.level == 2;
     const int st = stride(cell.level), n = frame_.coarse_steps / st, np = n + 1;
     const glm::ivec3 base = cell.coord * frame_.coarse_steps;
-    gather(cell, n, s);
+    if (!gather(cell, n, s)) return;
     const auto& table = mc::case_table();
     const auto& edges = mc::cube_edges();
     const int axis_step[3] = {1, np, np * np};
@@ -172,61 +178,73 @@ void CellMesher::stitch(const CoarseCell& cell, Scratch& s, ChunkOut& out) const
         }
 }
 
-// Edge key -> global vertex index, open addressing with linear probing.
+// Edge key -> global vertex index, open addressing with linear probing; grows at load 1/2.
 class VertexIndex {
 public:
-    explicit VertexIndex(std::size_t expected) {
-        std::size_t c = 16;
-        while (c < 2 * expected) c *= 2;
-        keys_.assign(c, lattice::kEmptyKey);
-        ids_.resize(c);
-        mask_ = c - 1;
-    }
+    explicit VertexIndex(std::size_t expected) { reset(expected); }
     // Returns the index stored for `key`, inserting `fresh` when absent.
     std::uint32_t get_or_insert(std::uint64_t key, std::uint32_t fresh, bool& inserted) {
+        if (2 * (size_ + 1) > table_.size()) grow();
         std::uint64_t s = lattice::hash(key) & mask_;
-        while (keys_[s] != lattice::kEmptyKey) {
-            if (keys_[s] == key) return inserted = false, ids_[s];
-            s = (s + 1) & mask_;
-        }
-        keys_[s] = key;
-        ids_[s] = fresh;
+        for (; table_[s].key != lattice::kEmptyKey; s = (s + 1) & mask_)
+            if (table_[s].key == key) return inserted = false, table_[s].id;
+        table_[s] = {key, fresh};
+        ++size_;
         inserted = true;
         return fresh;
     }
 
 private:
-    std::vector<std::uint64_t> keys_;
-    std::vector<std::uint32_t> ids_;
-    std::uint64_t mask_;
-};
+    struct Entry {
+        std::uint64_t key;
+        std::uint32_t id;
+    };
+    std::vector<Entry> table_;
+    std::size_t size_ = 0;
+    std::uint64_t mask_ = 0;
 
-// Phase 2: global numbering in order of first appearance; a vertex made by any level-2 cube is level 2.
-void number_vertices(std::vector<ChunkOut>& chunks, std::vector<std::vector<std::uint32_t>>& ids, Mesh& mesh) {
-    std::size_t shared = 0;
-    for (const auto& c : chunks) shared += std::size_t(std::count(c.shared.begin(), c.shared.end(), 1));
-    VertexIndex index(shared);
-    std::vector<glm::vec3> pos;
-    std::vector<std::uint8_t>& level = mesh.vertex_level;
-    for (std::size_t ci = 0; ci < chunks.size(); ++ci) {
-        const ChunkOut& c = chunks[ci];
-        ids[ci].resize(c.keys.size());
-        for (std::size_t v = 0; v < c.keys.size(); ++v) {
-            bool fresh = true;
-            const std::uint32_t id = c.shared[v] ? index.get_or_insert(c.keys[v], std::uint32_t(pos.size()), fresh)
-                                                 : std::uint32_t(pos.size());
-            if (fresh) {
-                pos.push_back(c.positions[v]);
-                level.push_back(c.level[v]);
-            } else {
-                level[id] = std::min(level[id], c.level[v]);
-            }
-            ids[ci][v] = id;
+    void reset(std::size_t expected) {
+        std::size_t c = 1024;
+        while (c < 2 * expected) c *= 2;
+        table_.assign(c, Entry{lattice::kEmptyKey, 0});
+        mask_ = c - 1;
+        size_ = 0;
+    }
+    void grow() {
+        std::vector<Entry> old;
+        old.swap(table_);
+        reset(old.size());
+        for (const Entry& e : old) {
+            if (e.key == lattice::kEmptyKey) continue;
+            std::uint64_t s = lattice::hash(e.key) & mask_;
+            while (table_[s].key != lattice::kEmptyKey) s = (s + 1) & mask_;
+            table_[s] = e;
+            ++size_;
         }
     }
-    mesh.positions.resize(pos.size() * 3);
-    for (std::size_t v = 0; v < pos.size(); ++v)
-        for (int k = 0; k < 3; ++k) mesh.positions[3 * v + k] = pos[v][k];
+};
+
+// Phase 2, in chunk order: number vertices by first appearance in the canonical stream (DESIGN §6);
+// only vertices on a cell boundary can repeat, so only they go through the index. A vertex made
+// by any level-2 cube is level 2.
+void number_chunk(ChunkOut& c, VertexIndex& index, std::vector<std::uint32_t>& ids, Mesh& mesh) {
+    ids.resize(c.keys.size());
+    for (std::size_t v = 0; v < c.keys.size(); ++v) {
+        bool fresh = true;
+        const std::uint32_t next = std::uint32_t(mesh.vertex_level.size());
+        const std::uint32_t id = c.shared[v] ? index.get_or_insert(c.keys[v], next, fresh) : next;
+        if (fresh) {
+            mesh.positions.insert(mesh.positions.end(), {c.positions[v].x, c.positions[v].y, c.positions[v].z});
+            mesh.vertex_level.push_back(c.level[v]);
+        } else {
+            mesh.vertex_level[id] = std::min(mesh.vertex_level[id], c.level[v]);
+        }
+        ids[v] = id;
+    }
+    c.keys = {};  // release what the remaining phase does not read
+    c.positions = {};
+    c.level = {};
+    c.shared = {};
 }
 
 }  // namespace
@@ -244,26 +262,40 @@ Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame&
         levels[i] = cells[order[i]].level;
     }
 
+    // Phases 1-2 as a pipeline: chunks are meshed in parallel and numbered in order meanwhile.
     const CellMesher mesher(frame, field, keys, levels);
-    std::vector<ChunkOut> chunks((cells.size() + kCellsPerChunk - 1) / kCellsPerChunk);
+    const std::size_t nc = (cells.size() + kCellsPerChunk - 1) / kCellsPerChunk;
+    std::vector<ChunkOut> chunks(nc);
+    std::vector<std::vector<std::uint32_t>> ids(nc);
     tbb::enumerable_thread_specific<Scratch> scratch;
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks.size(), 1), [&](const auto& r) {
-        Scratch& s = scratch.local();
-        for (std::size_t ci = r.begin(); ci != r.end(); ++ci) {
-            const std::size_t end = std::min(cells.size(), (ci + 1) * kCellsPerChunk);
-            for (std::size_t i = ci * kCellsPerChunk; i < end; ++i) mesher.mesh(cells[i], s, chunks[ci]);
-        }
-    });
-
     Mesh mesh;
-    std::vector<std::vector<std::uint32_t>> ids(chunks.size());
-    number_vertices(chunks, ids, mesh);
+    VertexIndex index(cells.size() * 8);
+    std::size_t next = 0;
+    const std::size_t tokens = 4 * std::size_t(tbb::this_task_arena::max_concurrency());
+    tbb::parallel_pipeline(
+        tokens,
+        tbb::make_filter<void, std::size_t>(tbb::filter_mode::serial_in_order,
+                                            [&](tbb::flow_control& fc) -> std::size_t {
+                                                if (next == nc) fc.stop();
+                                                return next++;
+                                            }) &
+            tbb::make_filter<std::size_t, std::size_t>(tbb::filter_mode::parallel,
+                                                       [&](std::size_t ci) {
+                                                           Scratch& s = scratch.local();
+                                                           const std::size_t end = std::min(cells.size(), (ci + 1) * kCellsPerChunk);
+                                                           for (std::size_t i = ci * kCellsPerChunk; i < end; ++i)
+                                                               mesher.mesh(cells[i], s, chunks[ci]);
+                                                           return ci;
+                                                       }) &
+            tbb::make_filter<std::size_t, void>(tbb::filter_mode::serial_in_order,
+                                                [&](std::size_t ci) { number_chunk(chunks[ci], index, ids[ci], mesh); }));
 
-    std::vector<std::size_t> tri_offset(chunks.size() + 1, 0);
-    for (std::size_t ci = 0; ci < chunks.size(); ++ci) tri_offset[ci + 1] = tri_offset[ci] + chunks[ci].kinds.size();
+    // Phase 3: triangles with global indices, in chunk order.
+    std::vector<std::size_t> tri_offset(nc + 1, 0);
+    for (std::size_t ci = 0; ci < nc; ++ci) tri_offset[ci + 1] = tri_offset[ci] + chunks[ci].kinds.size();
     mesh.triangles.resize(tri_offset.back() * 3);
     mesh.triangle_kind.resize(tri_offset.back());
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks.size(), 1), [&](const auto& r) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nc, 1), [&](const auto& r) {
         for (std::size_t ci = r.begin(); ci != r.end(); ++ci) {
             const ChunkOut& c = chunks[ci];
             std::uint32_t* t = mesh.triangles.data() + tri_offset[ci] * 3;
