@@ -1,0 +1,11 @@
+#!/usr/bin/env bash
+# Installs the Debian packages trilevel needs to build, test and run (as root, or with sudo).
+set -euo pipefail
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends \
+  g++ cmake make pocl-opencl-icd ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers \
+  libglm-dev catch2 libcli11-dev nlohmann-json3-dev zlib1g-dev libtbb-dev \
+  python3-numpy python3-scipy >/dev/null
