@@ -4,6 +4,8 @@
 #include <cmath>
 #include <random>
 
+#include <tbb/task_arena.h>
+
 #include "crack_stitch.hpp"
 #include "mesh_test_support.hpp"
 #include "surface_mesher.hpp"
@@ -138,4 +140,43 @@ TEST_CASE("crack stitching: one level-2 cell beside one level-3 cell", "[mesh]")
         CHECK(std::count(m.vertex_level.begin(), m.vertex_level.end(), 2) > 0);
         CHECK(std::count(m.vertex_level.begin(), m.vertex_level.end(), 3) > 0);
     }
+}
+
+TEST_CASE("adaptive sphere with random levels: closed, outward, same output on 1 and 2 threads", "[mesh]") {
+    const LatticeFrame frame{glm::vec3(-1.0f, 0.25f, 2.0f), 0.125f, 4};
+    const glm::dvec3 centre(50.3, 49.6, 50.2);
+    const double radius = 30.0;
+    std::vector<CoarseCell> cells;
+    std::mt19937 rng(99);
+    for (int z = 0; z < 25; ++z)
+        for (int y = 0; y < 25; ++y)
+            for (int x = 0; x < 25; ++x) {
+                const glm::dvec3 lo = glm::dvec3(x, y, z) * 4.0, hi = lo + 4.0;
+                const glm::dvec3 nr = glm::clamp(centre, lo, hi);
+                glm::dvec3 far;
+                for (int k = 0; k < 3; ++k) far[k] = std::abs(centre[k] - lo[k]) > std::abs(centre[k] - hi[k]) ? lo[k] : hi[k];
+                if (glm::length(nr - centre) <= radius && glm::length(far - centre) >= radius)
+                    cells.push_back({{x, y, z}, std::uint8_t(rng() % 2 ? 3 : 2)});
+            }
+    FinePointMap field = test::make_field(cells, frame, [&](glm::ivec3 p) {
+        return float(glm::length(glm::dvec3(p) - centre) - radius);
+    });
+    apply_transition_continuity(cells, frame, field);
+    auto run = [&](int threads) {
+        tbb::task_arena arena(threads);
+        Mesh m;
+        arena.execute([&] { m = triangulate_cells(cells, frame, field); });
+        return m;
+    };
+    const Mesh a = run(1), b = run(2);
+    CHECK(is_closed_and_oriented(a));
+    CHECK(a.positions == b.positions);
+    CHECK(a.triangles == b.triangles);
+    CHECK(a.vertex_level == b.vertex_level);
+    CHECK(a.triangle_kind == b.triangle_kind);
+    const double r = radius * frame.step, ball = 4.0 / 3.0 * M_PI * r * r * r;
+    CHECK(std::abs(test::signed_volume(a) - ball) < 0.02 * ball);
+    const auto patches = std::count(a.triangle_kind.begin(), a.triangle_kind.end(), TriangleKind::Patch);
+    CHECK(patches > 0);
+    CHECK(double(patches) < 0.15 * double(a.triangle_count()));  // half the faces are transitions here
 }

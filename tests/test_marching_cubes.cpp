@@ -112,6 +112,25 @@ TEST_CASE("marching-cubes table: all 256 cases close up with their face segments
     CHECK(max_triangles <= 10);
 }
 
+TEST_CASE("marching-cubes table: no triangle edge is a chord between two segments of one face", "[mesh]") {
+    // Such a chord could be picked by the neighbour across an ambiguous face as well (DESIGN §7).
+    for (unsigned c = 0; c < 256; ++c) {
+        const EdgeSet segments = case_segments(c);
+        const mc::CubeCase& cc = mc::case_table()[c];
+        for (int t = 0; t < cc.triangle_count; ++t)
+            for (int k = 0; k < 3; ++k) {
+                const int a = cc.triangles[t][k], b = cc.triangles[t][(k + 1) % 3];
+                if (segments.count({a, b}) || segments.count({b, a})) continue;
+                for (const mc::CubeFace& f : mc::cube_faces()) {
+                    const bool has_a = std::count(f.edge.begin(), f.edge.end(), a) > 0;
+                    const bool has_b = std::count(f.edge.begin(), f.edge.end(), b) > 0;
+                    INFO("case " << c << " edge " << a << "-" << b);
+                    CHECK_FALSE((has_a && has_b));
+                }
+            }
+    }
+}
+
 TEST_CASE("mesh topology report detects open, flipped and duplicated edges", "[mesh]") {
     Mesh m;
     m.positions = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
