@@ -66,9 +66,10 @@ struct AdaptiveCase {
     FinePointMap field;
 };
 
-AdaptiveCase random_adaptive_case(std::uint32_t seed) {
+AdaptiveCase random_adaptive_case(std::uint32_t seed, int coarse_steps = 4) {
     std::mt19937 rng(seed);
     AdaptiveCase c;
+    c.frame.coarse_steps = coarse_steps;
     const int cs = c.frame.coarse_steps;
     const glm::ivec3 dims(2 + int(rng() % 2), 2 + int(rng() % 2), 2 + int(rng() % 2));
     const glm::ivec3 off(int(rng() % 2), int(rng() % 2), int(rng() % 2));
@@ -120,6 +121,17 @@ TEST_CASE("adaptive property test: 10,000 random fields give closed oriented mes
     CHECK(transition_meshes > kFields / 4);  // the patches are exercised, not just allowed
     WARN(kFields << " adaptive fields: " << triangles << " triangles, " << patches << " patches in "
                  << transition_meshes << " meshes");
+}
+
+TEST_CASE("adaptive property test with coarse cells of 2 and 6 steps", "[mesh]") {
+    int failures = 0;
+    for (int cs : {2, 6})
+        for (int seed = 0; seed < 1000; ++seed) {
+            AdaptiveCase c = random_adaptive_case(std::uint32_t(seed) * 40503u + std::uint32_t(cs), cs);
+            const auto r = mesh_topology_report(triangulate_cells(c.cells, c.frame, c.field));
+            if (!r.closed_and_oriented() && ++failures <= 5) FAIL_CHECK("coarse_steps " << cs << " seed " << seed);
+        }
+    CHECK(failures == 0);
 }
 
 TEST_CASE("crack stitching: one level-2 cell beside one level-3 cell", "[mesh]") {
