@@ -14,7 +14,13 @@ namespace fs = std::filesystem;
 
 namespace trilevel::io {
 
-void fail(const std::string& path, const std::string& what) { throw Error(path + ": " + what); }
+void fail(const std::string& path, const std::string& what) {
+    // quoted file content may hold anything: keep the message one printable line of sane length
+    std::string msg = what.size() > 400 ? what.substr(0, 400) + "..." : what;
+    for (char& c : msg)
+        if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = ' ';
+    throw Error(path + ": " + msg);
+}
 
 void require_file(const std::string& path) {
     std::error_code ec;

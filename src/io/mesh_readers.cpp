@@ -1,5 +1,6 @@
 // read_mesh: .ply (ascii or binary), .obj, legacy .vtk POLYDATA; enough to read back what
 // write_mesh writes and common variants of it (polygons are fan-triangulated).
+#include <algorithm>
 #include <cmath>
 
 #include "io/io_common.hpp"
@@ -19,7 +20,10 @@ void add_polygon(const std::string& path, const std::string& where, const std::v
         for (std::size_t c : {std::size_t(0), j, j + 1}) mesh.triangles.push_back(static_cast<std::uint32_t>(idx[c]));
 }
 
-void read_ply_vertices(PlyValueReader& r, const PlyElement& e, Mesh& mesh) {
+void read_ply_vertices(const std::string& path, PlyValueReader& r, const PlyElement& e, Mesh& mesh) {
+    for (const char* c : {"x", "y", "z"})
+        if (std::none_of(e.props.begin(), e.props.end(), [&](const PlyProperty& p) { return p.name == c && !p.list_count; }))
+            fail(path, "PLY vertex element lacks property x, y or z");
     mesh.positions.reserve(3 * std::min<std::uint64_t>(e.count, r.left()));
     for (std::uint64_t i = 0; i < e.count; ++i) {
         float xyz[3] = {0, 0, 0};
@@ -51,7 +55,7 @@ Mesh read_ply_mesh(const std::string& path, const std::string& data) {
     PlyValueReader r(path, data, h);
     Mesh mesh;
     for (const auto& e : h.elements) {
-        if (e.name == "vertex") read_ply_vertices(r, e, mesh);
+        if (e.name == "vertex") read_ply_vertices(path, r, e, mesh);
         else if (e.name == "face") read_ply_faces(path, r, e, mesh);
         else for (std::uint64_t i = 0; !e.props.empty() && i < e.count; ++i) for (const auto& p : e.props) r.skip(p);
     }

@@ -222,6 +222,7 @@ std::optional<Appended> find_appended(const std::string& path, const std::string
     const std::size_t i = file.find("<AppendedData");
     if (i == std::string::npos) return std::nullopt;
     auto tag = find_tag(path, file, "AppendedData", i, i + 1);
+    if (!tag) fail(path, "offset " + std::to_string(i) + ": malformed <AppendedData> tag");
     const std::size_t u = file.find('_', tag->end);
     if (u == std::string::npos) fail(path, "offset " + std::to_string(tag->end) + ": AppendedData without the '_' marker");
     std::size_t end = file.rfind("</AppendedData>");
