@@ -349,6 +349,13 @@ TEST_CASE("hostile and malformed particle files are rejected with one-line error
     lzma.replace(lzma.find("header_type"), 0, "compressor=\"vtkLZMADataCompressor\" ");
     require_rejected(tmp, "lzma.vtu", lzma, "unsupported compressor");
 
+    std::string badtag = make_vtu(pts, {"raw", "appended"});
+    badtag.replace(badtag.find("<AppendedData "), 14, "<AppendedDataX");
+    require_rejected(tmp, "badtag.vtu", badtag, "malformed <AppendedData> tag");
+    std::string multiline = make_vtu(pts, b64v);
+    multiline.replace(multiline.find("\"UInt64\""), 8, "\"UInt\n64\"");
+    require_rejected(tmp, "multiline.vtu", multiline, "unsupported header_type");  // and still one line
+
     // BGEO
     require_rejected(tmp, "magic.bgeo", gzip("BgeoX" + std::string(40, '\0')), "BgeoV");
     require_rejected(tmp, "plainmagic.bgeo", "NotBgeo at all", "BgeoV");
