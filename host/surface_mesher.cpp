@@ -17,6 +17,7 @@
 #include <tbb/parallel_pipeline.h>
 #include <tbb/task_arena.h>
 
+#include "cell_index.hpp"
 #include "crack_stitch.hpp"
 #include "marching_cubes.hpp"
 
@@ -51,23 +52,15 @@ glm::vec3 crossing_position(const LatticeFrame& f, glm::ivec3 lower, int axis, f
 
 class CellMesher {
 public:
-    CellMesher(const LatticeFrame& frame, const FinePointMap& field, const std::vector<std::uint64_t>& keys,
-               const std::vector<std::uint8_t>& levels)
-        : frame_(frame), field_(field), cell_keys_(keys), cell_levels_(levels) {}
+    CellMesher(const LatticeFrame& frame, const FinePointMap& field, const CellIndex& cells)
+        : frame_(frame), field_(field), cells_(cells) {}
 
     void mesh(const CoarseCell& cell, Scratch& s, ChunkOut& out) const;
 
 private:
     const LatticeFrame& frame_;
     const FinePointMap& field_;
-    const std::vector<std::uint64_t>& cell_keys_;  // sorted
-    const std::vector<std::uint8_t>& cell_levels_;
-
-    int neighbour_level(glm::ivec3 c) const {
-        if (glm::any(glm::lessThan(c, glm::ivec3(0)))) return 0;
-        const auto it = std::lower_bound(cell_keys_.begin(), cell_keys_.end(), lattice::pack(c));
-        return it != cell_keys_.end() && *it == lattice::pack(c) ? cell_levels_[it - cell_keys_.begin()] : 0;
-    }
+    const CellIndex& cells_;
     bool gather(const CoarseCell& cell, int n, Scratch& s) const;
     void stitch(const CoarseCell& cell, Scratch& s, ChunkOut& out) const;
 };
@@ -170,7 +163,7 @@ void CellMesher::stitch(const CoarseCell& cell, Scratch& s, ChunkOut& out) const
         for (int side = 0; side < 2; ++side) {
             glm::ivec3 nb = cell.coord;
             nb[axis] += side ? 1 : -1;
-            if (neighbour_level(nb) != 2) continue;
+            if (cells_.level(nb) != 2) continue;
             const Level3Block block{cell.coord * frame_.coarse_steps, frame_.coarse_steps, s.values.data(),
                                     s.slots.data(), out.positions.data()};
             const std::size_t patches = stitch_transition_face(block, axis, side, field_, out.triangles);
@@ -251,19 +244,9 @@ void number_chunk(ChunkOut& c, VertexIndex& index, std::vector<std::uint32_t>& i
 
 Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame& frame, const FinePointMap& field) {
     if (frame.coarse_steps < 2 || frame.coarse_steps % 2) throw Error("triangulation: coarse_steps must be even");
-    std::vector<std::size_t> order(cells.size());
-    for (std::size_t i = 0; i < cells.size(); ++i) order[i] = i;
-    std::sort(order.begin(), order.end(),
-              [&](std::size_t a, std::size_t b) { return lattice::pack(cells[a].coord) < lattice::pack(cells[b].coord); });
-    std::vector<std::uint64_t> keys(cells.size());
-    std::vector<std::uint8_t> levels(cells.size());
-    for (std::size_t i = 0; i < cells.size(); ++i) {
-        keys[i] = lattice::pack(cells[order[i]].coord);
-        levels[i] = cells[order[i]].level;
-    }
-
     // Phases 1-2 as a pipeline: chunks are meshed in parallel and numbered in order meanwhile.
-    const CellMesher mesher(frame, field, keys, levels);
+    const CellIndex cell_index(cells);
+    const CellMesher mesher(frame, field, cell_index);
     const std::size_t nc = (cells.size() + kCellsPerChunk - 1) / kCellsPerChunk;
     std::vector<ChunkOut> chunks(nc);
     std::vector<std::vector<std::uint32_t>> ids(nc);

@@ -1,54 +1,127 @@
 // Transition continuity (paper §3.3.1, DESIGN §7); see transition_continuity.hpp.
+//
+// As in the paper, only level-2 cells with a level-3 neighbour do work: across a face (the whole
+// closed face) or across a coarse edge (that edge). Their level-2 values are gathered into a local
+// block first; the boundary points are then looked up in one batch and overwritten.
 #include "transition_continuity.hpp"
 
 #include <atomic>
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
+#include "cell_index.hpp"
 #include "trilevel/trilevel.hpp"
 
 namespace trilevel {
 namespace {
 
-float level2_value(const FinePointMap& field, glm::ivec3 p) {
-    const float* v = field.find(p);
-    if (!v) throw Error("transition continuity: level-2 lattice point missing from the fine point map");
-    return *v;
+struct Scratch {
+    std::vector<std::uint64_t> keys;
+    std::vector<glm::ivec3> points;  // local coordinates of the odd points to set
+    std::vector<float*> found;
+    std::vector<float> level2;       // the cell's level-2 values, (cs/2+1)^3
+};
+
+class CellFixer {
+public:
+    CellFixer(const CellIndex& index, int cs, FinePointMap& field) : index_(index), cs_(cs), field_(field) {}
+    void fix(const CoarseCell& cell, Scratch& s) const;
+
+private:
+    const CellIndex& index_;
+    int cs_;
+    FinePointMap& field_;
+
+    bool level3(glm::ivec3 c) const { return index_.level(c) == 3; }
+    void add_face(int axis, int side, Scratch& s) const;
+    void add_edge(int axis, int sb, int sc, Scratch& s) const;
+    float even_value(const Scratch& s, glm::ivec3 p) const {
+        const int m = cs_ / 2 + 1;
+        return s.level2[std::size_t(((p.z / 2) * m + p.y / 2) * m + p.x / 2)];
+    }
+    float interpolated(const Scratch& s, glm::ivec3 p) const;
+};
+
+// Odd points of the closed face (axis, side), local coordinates.
+void CellFixer::add_face(int axis, int side, Scratch& s) const {
+    const int b = (axis + 1) % 3, c = (axis + 2) % 3;
+    for (int j = 0; j <= cs_; ++j)
+        for (int i = 0; i <= cs_; ++i) {
+            if (((i | j) & 1) == 0) continue;
+            glm::ivec3 p{0};
+            p[axis] = side * cs_;
+            p[b] = i;
+            p[c] = j;
+            s.points.push_back(p);
+        }
 }
 
-// The interpolated value of an off-lattice boundary point `p` (DESIGN §7).
-float interpolated_value(const FinePointMap& field, glm::ivec3 p) {
+// Odd points of the coarse edge along `axis` on sides sb (of axis+1) and sc (of axis+2).
+void CellFixer::add_edge(int axis, int sb, int sc, Scratch& s) const {
+    for (int i = 1; i < cs_; i += 2) {
+        glm::ivec3 p{0};
+        p[axis] = i;
+        p[(axis + 1) % 3] = sb * cs_;
+        p[(axis + 2) % 3] = sc * cs_;
+        s.points.push_back(p);
+    }
+}
+
+// DESIGN §7: one odd coordinate -> edge midpoint; two -> face centre, fixed argument order.
+float CellFixer::interpolated(const Scratch& s, glm::ivec3 p) const {
     int odd[2], n = 0;
     for (int a = 0; a < 3; ++a)
         if (p[a] & 1) odd[n++] = a;
     glm::ivec3 e0{0}, e1{0};
     e0[odd[0]] = 1;
-    if (n == 1) return lattice::edge_midpoint_value(level2_value(field, p - e0), level2_value(field, p + e0));
+    if (n == 1) return lattice::edge_midpoint_value(even_value(s, p - e0), even_value(s, p + e0));
     e1[odd[1]] = 1;
-    return lattice::face_centre_value(level2_value(field, p - e0 - e1), level2_value(field, p + e0 - e1),
-                                      level2_value(field, p - e0 + e1), level2_value(field, p + e0 + e1));
+    return lattice::face_centre_value(even_value(s, p - e0 - e1), even_value(s, p + e0 - e1),
+                                      even_value(s, p - e0 + e1), even_value(s, p + e0 + e1));
 }
 
-// All odd points of the closed boundary of one level-2 cell that the map holds.
-void fix_cell(const CoarseCell& cell, int cs, FinePointMap& field) {
-    const glm::ivec3 base = cell.coord * cs;
+void CellFixer::fix(const CoarseCell& cell, Scratch& s) const {
+    s.points.clear();
     for (int axis = 0; axis < 3; ++axis) {
         const int b = (axis + 1) % 3, c = (axis + 2) % 3;
-        for (int side = 0; side < 2; ++side)
-            for (int j = 0; j <= cs; ++j)
-                for (int i = 0; i <= cs; ++i) {
-                    if (((i | j) & 1) == 0) continue;
-                    glm::ivec3 p = base;
-                    p[axis] += side * cs;
-                    p[b] += i;
-                    p[c] += j;
-                    float* v = field.find(p);
-                    if (!v) continue;
-                    // Cells sharing the point store the same value: relaxed atomic stores keep it race-free.
-                    std::atomic_ref<float>(*v).store(interpolated_value(field, p), std::memory_order_relaxed);
-                }
+        for (int side = 0; side < 2; ++side) {
+            glm::ivec3 n = cell.coord;
+            n[axis] += side ? 1 : -1;
+            if (level3(n)) add_face(axis, side, s);
+        }
+        for (int sb = 0; sb < 2; ++sb)
+            for (int sc = 0; sc < 2; ++sc) {
+                glm::ivec3 nb = cell.coord, nc = cell.coord;
+                nb[b] += sb ? 1 : -1;
+                nc[c] += sc ? 1 : -1;
+                glm::ivec3 nbc = nb;
+                nbc[c] = nc[c];
+                if (level3(nb) || level3(nc) || level3(nbc)) add_edge(axis, sb, sc, s);
+            }
     }
+    if (s.points.empty()) return;
+    const glm::ivec3 base = cell.coord * cs_;
+    const int m = cs_ / 2 + 1;
+    s.keys.clear();
+    for (int z = 0; z < m; ++z)
+        for (int y = 0; y < m; ++y)
+            for (int x = 0; x < m; ++x) s.keys.push_back(lattice::pack(base + 2 * glm::ivec3(x, y, z)));
+    s.found.resize(s.keys.size());
+    find_batch(field_, s.keys.data(), s.keys.size(), s.found.data());
+    s.level2.resize(s.keys.size());
+    for (std::size_t i = 0; i < s.keys.size(); ++i) {
+        if (!s.found[i]) throw Error("transition continuity: level-2 lattice point missing from the fine point map");
+        s.level2[i] = *s.found[i];
+    }
+    s.keys.clear();
+    for (const glm::ivec3& p : s.points) s.keys.push_back(lattice::pack(base + p));
+    s.found.resize(s.keys.size());
+    find_batch(field_, s.keys.data(), s.keys.size(), s.found.data());
+    for (std::size_t i = 0; i < s.points.size(); ++i)
+        if (s.found[i])  // cells sharing the point store the same value: relaxed atomics keep it race-free
+            std::atomic_ref<float>(*s.found[i]).store(interpolated(s, s.points[i]), std::memory_order_relaxed);
 }
 
 }  // namespace
@@ -56,9 +129,13 @@ void fix_cell(const CoarseCell& cell, int cs, FinePointMap& field) {
 void apply_transition_continuity(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
                                  FinePointMap& field) {
     if (frame.coarse_steps % 2 != 0) throw Error("transition continuity: coarse_steps must be even");
+    const CellIndex index(cells);
+    const CellFixer fixer(index, frame.coarse_steps, field);
+    tbb::enumerable_thread_specific<Scratch> scratch;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 256), [&](const auto& r) {
+        Scratch& s = scratch.local();
         for (std::size_t i = r.begin(); i != r.end(); ++i)
-            if (cells[i].level == 2) fix_cell(cells[i], frame.coarse_steps, field);
+            if (cells[i].level == 2) fixer.fix(cells[i], s);
     });
 }
 

@@ -1,0 +1,67 @@
+// Lookup helpers of the host stages: coarse cell coordinates -> level, and batched fine-point
+// lookups that overlap their cache misses (DESIGN §4: sparse structures only).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "coarse_cells.hpp"
+#include "fine_point_map.hpp"
+
+namespace trilevel {
+
+/// Open-addressing set of coarse cells keyed by lattice::pack(coord), holding each cell's level.
+class CellIndex {
+public:
+    explicit CellIndex(const std::vector<CoarseCell>& cells) {
+        std::size_t c = 16;
+        while (c < 2 * cells.size()) c *= 2;
+        keys_.assign(c, lattice::kEmptyKey);
+        levels_.assign(c, 0);
+        mask_ = c - 1;
+        for (const CoarseCell& cell : cells) {
+            const std::uint64_t k = lattice::pack(cell.coord);
+            std::uint64_t s = lattice::hash(k) & mask_;
+            while (keys_[s] != lattice::kEmptyKey && keys_[s] != k) s = (s + 1) & mask_;
+            keys_[s] = k;
+            levels_[s] = cell.level;
+        }
+    }
+    /// The level of the cell at `coord`, or 0 when absent (negative coordinates are absent).
+    int level(glm::ivec3 coord) const {
+        if (coord.x < 0 || coord.y < 0 || coord.z < 0) return 0;
+        const std::uint64_t k = lattice::pack(coord);
+        for (std::uint64_t s = lattice::hash(k) & mask_;; s = (s + 1) & mask_) {
+            if (keys_[s] == k) return levels_[s];
+            if (keys_[s] == lattice::kEmptyKey) return 0;
+        }
+    }
+
+private:
+    std::vector<std::uint64_t> keys_;
+    std::vector<std::uint8_t> levels_;
+    std::uint64_t mask_ = 0;
+};
+
+/// Looks up `n` keys at once: prefetches every home slot first so the misses overlap, then
+/// probes. out[i] = pointer to the value of keys[i], or nullptr when absent.
+template <class Map, class Value>
+void find_batch(Map& map, const std::uint64_t* keys, std::size_t n, Value** out) {
+    if (map.capacity() == 0) {
+        for (std::size_t i = 0; i < n; ++i) out[i] = nullptr;
+        return;
+    }
+    const std::uint64_t* table = map.keys().data();
+    const std::uint64_t mask = map.capacity() - 1;
+    for (std::size_t i = 0; i < n; ++i) {
+        __builtin_prefetch(table + (lattice::hash(keys[i]) & mask));
+        __builtin_prefetch(map.values().data() + (lattice::hash(keys[i]) & mask));
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+        std::uint64_t s = lattice::hash(keys[i]) & mask;
+        while (table[s] != keys[i] && table[s] != lattice::kEmptyKey) s = (s + 1) & mask;
+        out[i] = table[s] == keys[i] ? &map.values()[s] : nullptr;
+    }
+}
+
+}  // namespace trilevel
