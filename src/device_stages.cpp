@@ -239,6 +239,11 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<Coa
         grow_fine_points(rt, p, std::max(p.hash.capacity * 2, next_pow2(c.inserted * 2 + 1)));
     }
 
+    evaluate_pending(rt, p, frame, b, r, R);
+}
+
+void evaluate_pending(OpenCLRuntime& rt, FinePoints& p, const LatticeFrame& frame, const BinnedParticles& b, float r,
+                      float R) {
     // Stage 6 over the points not evaluated yet: each unique point exactly once.
     cl::Buffer count = rt.buffer(sizeof(cl_uint), "pending count");
     cl::Buffer pending = rt.buffer(p.inserted * sizeof(cl_uint), "pending points");
@@ -250,6 +255,25 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<Coa
              b.bins.keys, cl_ulong(b.bins.mask()), b.range, r, R);
     rt.run("scalar_field", todo);
     rt.finish();
+}
+
+void insert_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<std::uint64_t>& keys,
+                         const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
+    if (keys.empty()) return;
+    const cl_uint n = cl_uint(keys.size());
+    cl::Buffer in = rt.buffer(n * sizeof(cl_ulong), "extra fine points");
+    cl::Buffer slots = rt.buffer(n * sizeof(cl_long), "extra fine point slots");
+    rt.queue().enqueueWriteBuffer(in, CL_FALSE, 0, n * sizeof(cl_ulong), keys.data());
+    if (p.hash.capacity < (p.inserted + n) * 2) grow_fine_points(rt, p, (p.inserted + n) * 2);
+    for (;;) {
+        set_args(rt.kernel("hash_insert_keys"), in, n, p.hash.keys, cl_ulong(p.hash.mask()), slots, p.hash.stats);
+        rt.run("hash_insert_keys", n);
+        HashCounters c = read_counters(rt, p.hash);
+        p.inserted = c.inserted;
+        if (!needs_growth(c, p.hash)) break;
+        grow_fine_points(rt, p, std::max(p.hash.capacity * 2, next_pow2(c.inserted * 2 + 1)));
+    }
+    evaluate_pending(rt, p, frame, b, r, R);
 }
 
 FinePointMap read_fine_points(OpenCLRuntime& rt, const FinePoints& p) {

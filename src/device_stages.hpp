@@ -62,6 +62,12 @@ struct FinePoints {
 /// Inserts the points of `cells` (growing the table as needed), then evaluates the new ones.
 void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vector<CoarseCell>& cells,
                          const LatticeFrame& frame, const BinnedParticles& bins, float r, float R);
+/// Evaluates every point inserted but not evaluated yet.
+void evaluate_pending(OpenCLRuntime& rt, FinePoints& points, const LatticeFrame& frame, const BinnedParticles& bins,
+                      float r, float R);
+/// Inserts the given lattice point keys (growing the table as needed) and evaluates the new ones.
+void insert_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vector<std::uint64_t>& keys,
+                         const LatticeFrame& frame, const BinnedParticles& bins, float r, float R);
 /// Copies the table to the host.
 FinePointMap read_fine_points(OpenCLRuntime& rt, const FinePoints& points);
 

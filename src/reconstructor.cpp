@@ -4,11 +4,13 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <unordered_map>
 
 #include <sys/resource.h>
 
 #include "band_closure.hpp"
 #include "device_stages.hpp"
+#include "edge_refinement.hpp"
 #include "opencl_runtime.hpp"
 #include "stage_constants.hpp"
 #include "surface_mesher.hpp"
@@ -136,6 +138,27 @@ void count_mesh(const Mesh& m, Stats& s) {
     }
 }
 
+// EXPERIMENT: level smoothing variants selected by TRILEVEL_SMOOTH.
+void smooth_levels(SurfaceCells& sc, float threshold) {
+    const char* env = std::getenv("TRILEVEL_SMOOTH");
+    int mode = env ? std::atoi(env) : 0;
+    if (mode == 0) return;
+    std::unordered_map<std::uint64_t, std::size_t> idx;
+    for (std::size_t i = 0; i < sc.cells.size(); ++i) idx[lattice::pack(sc.cells[i].coord)] = i;
+    std::vector<float> k2(sc.cells.size());
+    for (std::size_t i = 0; i < sc.cells.size(); ++i) {
+        double sum = 0; int n = 0; float mx = 0;
+        for (int dz = -1; dz <= 1; ++dz) for (int dy = -1; dy <= 1; ++dy) for (int dx = -1; dx <= 1; ++dx) {
+            auto it = idx.find(lattice::pack(sc.cells[i].coord + glm::ivec3(dx, dy, dz)));
+            if (it == idx.end()) continue;
+            sum += sc.curvature[it->second]; ++n; mx = std::max(mx, sc.curvature[it->second]);
+        }
+        k2[i] = mode == 1 ? float(sum / n) : mx;
+    }
+    for (std::size_t i = 0; i < sc.cells.size(); ++i)
+        sc.cells[i].level = (sc.splash[i] || k2[i] >= threshold) ? 3 : 2;
+}
+
 std::uint64_t peak_rss_bytes() {
     rusage u{};
     getrusage(RUSAGE_SELF, &u);
@@ -165,6 +188,7 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     s.splash_particles = classes.splash;
     timer.stage("surface_particles");
     SurfaceCells sc = surface_cells(rt, bins, classes, r, R, g.coarse_edge, threshold, g.forced_level);
+    if (g.forced_level == 0) smooth_levels(sc, threshold);
     for (std::uint8_t f : sc.splash) s.splash_cells += f;
     timer.stage("surface_cells");
 
@@ -191,6 +215,12 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     s.time_ms.emplace_back("scalar_field", t_field);
     s.time_ms.emplace_back("band_closure", t_closure);
     timer.restart();  // the loop recorded its own two entries
+    if (auto mids = level2_crossing_midpoints(cells, g.frame, field); !mids.empty()) {
+        insert_and_evaluate(rt, points, mids, g.frame, bins, r, R);
+        field = read_fine_points(rt, points);
+        apply_transition_continuity(cells, g.frame, field);  // the re-read table holds raw values again
+    }
+    timer.stage("edge_refinement");
     s.surface_cells = cells.size();
     for (const auto& c : cells) (c.level == 2 ? s.surface_cells_level2 : s.surface_cells_level3)++;
     count_points(field, s);

@@ -1,0 +1,31 @@
+// Level-2 edge refinement: one bisection step for the vertices of flat regions.
+//
+// Beyond the paper: a crossing on a level-2 edge (2 lattice steps) is placed on the unit sub-edge
+// whose end signs differ, interpolating with the edge's midpoint value (DESIGN §7 vertex rule).
+// Where no level-3 cell shares the edge, the midpoint is not constrained by transition
+// continuity, so its true field value can be used: the vertex then lands where the uniform
+// cell-r mesh puts it, while the level-2 triangle count stays the same. Costs one scalar-field
+// evaluation per level-2 vertex.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "coarse_cells.hpp"
+#include "fine_point_map.hpp"
+
+namespace trilevel {
+
+/// Keys of the midpoints of level-2 edges that the surface crosses (end signs differ) and that
+/// `field` does not hold yet, sorted and unique. Run after band closure and continuity.
+std::vector<std::uint64_t> level2_crossing_midpoints(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
+                                                     const FinePointMap& field);
+
+/// The value the level-2 vertex rule uses at the midpoint `mid` of a level-2 edge with end values
+/// va, vb: the field's value when present (a refined or continuity point), else the linear mean.
+inline float level2_midpoint_value(const FinePointMap& field, glm::ivec3 mid, float va, float vb) {
+    const float* v = field.find(mid);
+    return v ? *v : lattice::edge_midpoint_value(va, vb);
+}
+
+}  // namespace trilevel
