@@ -56,13 +56,14 @@ private:
         if (id < 0) throw Error("crack stitching: a face crossing has no level-3 vertex (continuity missing?)");
         return id;
     }
-    // Vertex of a level-2 edge from p to p+2e: the unit sub-edge that holds the crossing (DESIGN §7).
+    // Vertex of a level-2 edge from p to p+2e in the face: the unit sub-edge that holds the
+    // crossing (DESIGN §7). The midpoint is a level-3 point here, so its stored value (after
+    // continuity) is what level2_midpoint_value gives the surface mesher's level-2 side.
     std::int32_t level2_vertex(glm::ivec3 p, int axis) const {
         glm::ivec3 e{0};
         e[axis] = 1;
-        const float va = value(p), vb = value(p + 2 * e);
-        const float m = lattice::edge_midpoint_value(va, vb);
-        return unit_vertex(mc::inside(va) != mc::inside(m) ? p : p + e, axis);
+        const float m = value(p + e);
+        return unit_vertex(mc::inside(value(p)) != mc::inside(m) ? p : p + e, axis);
     }
     // Local point of corner k of the cube face (axis, face_side), face square at `origin`, `scale` steps.
     glm::ivec3 face_point(int face_side, int k, glm::ivec3 origin, int scale) const {

@@ -19,6 +19,7 @@
 
 #include "cell_index.hpp"
 #include "crack_stitch.hpp"
+#include "edge_refinement.hpp"
 #include "marching_cubes.hpp"
 
 namespace trilevel {
@@ -97,7 +98,7 @@ bool CellMesher::gather(const CoarseCell& cell, int n, Scratch& s) const {
         inside += mc::inside(values[slot]);
     }
     if (inside == 0 || inside == count) return false;
-    s.slots.assign(count * (cell.level == 2 ? 6 : 3), -1);
+    s.slots.assign(count * 3, -1);
     return true;
 }
 
@@ -113,32 +114,32 @@ void CellMesher::mesh(const CoarseCell& cell, Scratch& s, ChunkOut& out) const {
     for (int c = 0; c < 8; ++c) corner_off[c] = (c & 1) + ((c >> 1) & 1) * np + ((c >> 2) & 1) * np * np;
     const TriangleKind kind = l2 ? TriangleKind::Level2 : TriangleKind::Level3;
 
-    // Vertex of cube edge e of the cube at local (x, y, z), created on first use.
+    // Vertex of cube edge e of the cube at local (x, y, z), created on first use. A level-2 edge
+    // holds at most one crossing, so its slot is the edge's; the vertex lies on the unit sub-edge
+    // whose end signs differ, the midpoint valued by level2_midpoint_value (DESIGN §7,
+    // host/edge_refinement.hpp): the same key and position from every cell sharing the edge.
     auto vertex = [&](int e, glm::ivec3 cube, int id0) -> std::uint32_t {
         const mc::CubeEdge& ce = edges[e];
         const int lp = id0 + corner_off[ce.corner0];
-        const float va = s.values[lp], vb = s.values[lp + axis_step[ce.axis]];
+        std::int32_t& id = s.slots[lp * 3 + ce.axis];
+        if (id >= 0) return std::uint32_t(id);
+        float a0 = s.values[lp], a1 = s.values[lp + axis_step[ce.axis]];
         glm::ivec3 lower = cube + glm::ivec3(ce.corner0 & 1, (ce.corner0 >> 1) & 1, (ce.corner0 >> 2) & 1);
         const int b = (ce.axis + 1) % 3, c = (ce.axis + 2) % 3;
         const bool on_boundary = lower[b] == 0 || lower[b] == n || lower[c] == 0 || lower[c] == n;
-        float a0 = va, a1 = vb;
-        int slot = lp * 3 + ce.axis;
         lower = base + st * lower;
-        if (l2) {  // the unit sub-edge holding the crossing (DESIGN §7)
-            const float m = lattice::edge_midpoint_value(va, vb);
-            const bool first = mc::inside(va) != mc::inside(m);
-            slot = slot * 2 + (first ? 0 : 1);
-            if (first) a1 = m;
-            else a0 = m, lower[ce.axis] += 1;
+        if (l2) {
+            glm::ivec3 mid = lower;
+            mid[ce.axis] += 1;
+            const float m = level2_midpoint_value(field_, mid, a0, a1);
+            if (mc::inside(a0) != mc::inside(m)) a1 = m;
+            else a0 = m, lower = mid;
         }
-        std::int32_t& id = s.slots[slot];
-        if (id < 0) {
-            id = std::int32_t(out.keys.size());
-            out.keys.push_back(lattice::edge_key(lower, ce.axis));
-            out.positions.push_back(crossing_position(frame_, lower, ce.axis, a0, a1));
-            out.level.push_back(std::uint8_t(cell.level));
-            out.shared.push_back(on_boundary);
-        }
+        id = std::int32_t(out.keys.size());
+        out.keys.push_back(lattice::edge_key(lower, ce.axis));
+        out.positions.push_back(crossing_position(frame_, lower, ce.axis, a0, a1));
+        out.level.push_back(std::uint8_t(cell.level));
+        out.shared.push_back(on_boundary);
         return std::uint32_t(id);
     };
 

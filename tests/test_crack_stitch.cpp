@@ -9,6 +9,7 @@
 #include <tbb/task_arena.h>
 
 #include "crack_stitch.hpp"
+#include "edge_refinement.hpp"
 #include "mesh_test_support.hpp"
 #include "surface_mesher.hpp"
 #include "test_support.hpp"
@@ -89,6 +90,11 @@ AdaptiveCase random_adaptive_case(std::uint32_t seed, int coarse_steps = 4) {
         return test::on_box_boundary(p, lo, hi) ? 1.0f : random_value(rng, kind, p);
     });
     apply_transition_continuity(c.cells, c.frame, c.field);
+    if (rng() % 2) {  // level-2 edge refinement: any value at midpoints of crossed level-2 edges
+        for (std::uint64_t key : level2_crossing_midpoints(c.cells, c.frame, c.field))
+            c.field.insert(key, random_value(rng, int(rng() % 6), lattice::unpack(key)));
+        apply_transition_continuity(c.cells, c.frame, c.field);
+    }
     return c;
 }
 
