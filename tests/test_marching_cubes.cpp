@@ -9,6 +9,7 @@
 #include <tbb/global_control.h>
 #include <tbb/task_arena.h>
 
+#include "edge_refinement.hpp"
 #include "marching_cubes.hpp"
 #include "mesh_test_support.hpp"
 #include "surface_mesher.hpp"
@@ -192,6 +193,7 @@ struct SphereSetup {
     std::vector<CoarseCell> cells;
     FinePointMap field;
     double radius;
+    glm::dvec3 centre;
 };
 
 // Cells whose box meets the sphere |x - c| = R (lattice units), all at `level`.
@@ -201,6 +203,7 @@ SphereSetup sphere_setup(double radius, int cs, std::uint8_t level) {
     s.radius = radius;
     const int nc = int(std::ceil((2 * radius + 4) / cs)) + 2;
     const glm::dvec3 centre(nc * cs / 2.0 + 0.3, nc * cs / 2.0 - 0.2, nc * cs / 2.0 + 0.1);
+    s.centre = centre;
     for (int z = 0; z < nc; ++z)
         for (int y = 0; y < nc; ++y)
             for (int x = 0; x < nc; ++x) {
@@ -232,6 +235,34 @@ TEST_CASE("sphere: closed, outward, volume within 2% of the ball", "[mesh]") {
         CHECK(std::abs(vol - ball) / ball < 0.02);
         for (std::uint8_t l : m.vertex_level) CHECK(l == level);
     }
+}
+
+TEST_CASE("level-2 sphere with true values at crossed edge midpoints (edge refinement)", "[mesh]") {
+    SphereSetup s = sphere_setup(12.0, 4, 2);
+    const Mesh plain = triangulate_cells(s.cells, s.frame, s.field);
+    const glm::dvec3 centre = s.centre;
+    for (std::uint64_t key : level2_crossing_midpoints(s.cells, s.frame, s.field))
+        s.field.insert(key, float(glm::length(glm::dvec3(lattice::unpack(key)) - centre) - s.radius));
+    const Mesh refined = triangulate_cells(s.cells, s.frame, s.field);
+    CHECK(is_closed_and_oriented(refined));
+    CHECK(refined.triangle_count() == plain.triangle_count());
+    // Every vertex now lies within a small distance of the sphere: the linear fit on a unit sub-edge.
+    double worst_plain = 0, worst_refined = 0;
+    auto worst = [&](const Mesh& m) {
+        double w = 0;
+        for (std::size_t v = 0; v < m.vertex_count(); ++v) {
+            const glm::dvec3 p((m.positions[3 * v] - s.frame.origin.x) / s.frame.step,
+                               (m.positions[3 * v + 1] - s.frame.origin.y) / s.frame.step,
+                               (m.positions[3 * v + 2] - s.frame.origin.z) / s.frame.step);
+            w = std::max(w, std::abs(glm::length(p - centre) - s.radius));
+        }
+        return w;
+    };
+    worst_plain = worst(plain);
+    worst_refined = worst(refined);
+    INFO("worst vertex distance to the sphere, lattice steps: " << worst_plain << " -> " << worst_refined);
+    CHECK(worst_refined < worst_plain);
+    CHECK(worst_refined < 0.05);
 }
 
 TEST_CASE("triangulation is bit-identical for 1 and 2 threads", "[mesh]") {
