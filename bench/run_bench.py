@@ -563,18 +563,17 @@ def write_report(path, args, datasets, tools, rows, summary, checks, compares, m
     add("")
     add("## trilevel time per stage (medians of `--stats` `time_ms`, ms)")
     add("")
-    stage_keys = []
-    for s in summary.values():
-        for k in s:
-            if k.startswith("stage_ms.") and k not in stage_keys and s is not None:
-                stage_keys.append(k)
     tri_keys = []
     for (dsn, tn), s in summary.items():
         if tn.startswith("trilevel"):
             for k in s:
                 if k.startswith("stage_ms.") and k not in tri_keys:
                     tri_keys.append(k)
-    tri_keys = [k for k in tri_keys if not k.endswith(".total")] + [k for k in tri_keys if k.endswith(".total")]
+    order = ["read", "binning", "surface_particles", "surface_cells", "scalar_field", "band_closure",
+             "edge_refinement", "triangulation", "write"]
+    rank = {f"stage_ms.{k}": i for i, k in enumerate(order)}
+    tri_keys = sorted((k for k in tri_keys if not k.endswith(".total")), key=lambda k: (rank.get(k, 50), k)) + \
+        [k for k in tri_keys if k.endswith(".total")]
     add("| dataset | mode | " + " | ".join(k.split(".", 1)[1] for k in tri_keys) + " | wall | wall − total |")
     add("| --- | --- | " + " | ".join("---:" for _ in tri_keys) + " | ---: | ---: |")
     for ds in datasets:
@@ -676,7 +675,24 @@ def main():
                          "offset are slow; default 300000)")
     ap.add_argument("--no-splashsurf", action="store_true")
     ap.add_argument("--no-openvdb", action="store_true")
+    ap.add_argument("--report-only", metavar="STATE.json", default=None,
+                    help="re-render RESULTS.md/CSV/PNG from a saved run (CACHE/last_run.json), run nothing")
     args = ap.parse_args()
+    if args.report_only:
+        with open(args.report_only) as f:
+            st = json.load(f)
+        out_dir = os.path.dirname(os.path.abspath(args.out))
+        args.csv = args.csv or os.path.join(out_dir, "results.csv")
+        args.png = args.png or os.path.join(out_dir, "results.png")
+        args.reps, args.timeout = st["reps"], st["timeout"]
+        args.vdb_closing_max_particles = st["vdb_closing_max_particles"]
+        summary = summarize(st["rows"])
+        write_csv(st["rows"], args.csv)
+        write_report(args.out, args, st["datasets"], st["tools"], st["rows"], summary, st["checks"],
+                     st["compares"], st["meta"])
+        write_plot(summary, st["datasets"], st["tools"], args.png)
+        log(f"wrote {args.out}, {args.csv}, {args.png} from {args.report_only}")
+        return
     if args.reps is None:
         args.reps = 3 if args.quick else 5
     out_dir = os.path.dirname(os.path.abspath(args.out))
@@ -742,6 +758,10 @@ def main():
         if cmp:
             compares[ds["name"]] = cmp
         # Write after every dataset, so a cut-off run still leaves its results.
+        with open(os.path.join(args.cache, "last_run.json"), "w") as f:
+            json.dump(dict(rows=all_rows, checks=checks, compares=compares, meta=meta, datasets=datasets,
+                           tools=[dict(name=t["name"], kind=t["kind"]) for t in tools], reps=args.reps,
+                           timeout=args.timeout, vdb_closing_max_particles=args.vdb_closing_max_particles), f)
         summary = summarize(all_rows)
         write_csv(all_rows, args.csv)
         write_report(args.out, args, datasets, tools, all_rows, summary, checks, compares, meta)
