@@ -40,6 +40,10 @@ struct Scratch {
     std::vector<float> values;
     std::vector<std::int32_t> slots;
     std::vector<std::pair<std::uint64_t, std::uint64_t>> home;  // key, home slot
+    std::vector<float> midpoint;          // level 2: midpoint value per crossed edge (point * 3 + axis)
+    std::vector<std::uint64_t> mid_keys;  // level 2: the crossed edges' midpoint keys ...
+    std::vector<int> mid_edges;           // ... their edge slots
+    std::vector<const float*> mid_found;
 };
 
 // The crossing on the unit edge from `lower` along `axis` with end values va, vb (DESIGN §7);
@@ -64,6 +68,7 @@ private:
     const CellIndex& cells_;
     bool gather(const CoarseCell& cell, int n, Scratch& s) const;
     void stitch(const CoarseCell& cell, Scratch& s, ChunkOut& out) const;
+    void level2_midpoints(const CoarseCell& cell, int n, Scratch& s) const;
 };
 
 // Two passes so the (cache-missing) hash probes of a cell overlap: prefetch every home slot, then
@@ -102,11 +107,40 @@ bool CellMesher::gather(const CoarseCell& cell, int n, Scratch& s) const {
     return true;
 }
 
+// Midpoint values of the crossed level-2 edges of a cell as level2_midpoint_value defines them
+// (stored value when present, else the linear mean), looked up in one prefetched batch.
+void CellMesher::level2_midpoints(const CoarseCell& cell, int n, Scratch& s) const {
+    const int np = n + 1, axis_step[3] = {1, np, np * np};
+    const glm::ivec3 base = cell.coord * frame_.coarse_steps;
+    s.mid_keys.clear();
+    s.mid_edges.clear();
+    for (int z = 0, lp = 0; z < np; ++z)
+        for (int y = 0; y < np; ++y)
+            for (int x = 0; x < np; ++x, ++lp)
+                for (int axis = 0; axis < 3; ++axis) {
+                    const glm::ivec3 p(x, y, z);
+                    if (p[axis] == n || mc::inside(s.values[lp]) == mc::inside(s.values[lp + axis_step[axis]])) continue;
+                    glm::ivec3 mid = base + 2 * p;
+                    mid[axis] += 1;
+                    s.mid_keys.push_back(lattice::pack(mid));
+                    s.mid_edges.push_back(lp * 3 + axis);
+                }
+    s.mid_found.resize(s.mid_keys.size());
+    find_batch(field_, s.mid_keys.data(), s.mid_keys.size(), s.mid_found.data());
+    s.midpoint.resize(s.values.size() * 3);
+    for (std::size_t i = 0; i < s.mid_edges.size(); ++i) {
+        const int e = s.mid_edges[i], lp = e / 3;
+        const float va = s.values[lp], vb = s.values[lp + axis_step[e % 3]];
+        s.midpoint[e] = s.mid_found[i] ? *s.mid_found[i] : lattice::edge_midpoint_value(va, vb);
+    }
+}
+
 void CellMesher::mesh(const CoarseCell& cell, Scratch& s, ChunkOut& out) const {
     const bool l2 = cell.level == 2;
     const int st = stride(cell.level), n = frame_.coarse_steps / st, np = n + 1;
     const glm::ivec3 base = cell.coord * frame_.coarse_steps;
     if (!gather(cell, n, s)) return;
+    if (l2) level2_midpoints(cell, n, s);
     const auto& table = mc::case_table();
     const auto& edges = mc::cube_edges();
     const int axis_step[3] = {1, np, np * np};
@@ -116,7 +150,7 @@ void CellMesher::mesh(const CoarseCell& cell, Scratch& s, ChunkOut& out) const {
 
     // Vertex of cube edge e of the cube at local (x, y, z), created on first use. A level-2 edge
     // holds at most one crossing, so its slot is the edge's; the vertex lies on the unit sub-edge
-    // whose end signs differ, the midpoint valued by level2_midpoint_value (DESIGN §7,
+    // whose end signs differ, the midpoint valued as level2_midpoint_value does (DESIGN §7,
     // host/edge_refinement.hpp): the same key and position from every cell sharing the edge.
     auto vertex = [&](int e, glm::ivec3 cube, int id0) -> std::uint32_t {
         const mc::CubeEdge& ce = edges[e];
@@ -129,11 +163,9 @@ void CellMesher::mesh(const CoarseCell& cell, Scratch& s, ChunkOut& out) const {
         const bool on_boundary = lower[b] == 0 || lower[b] == n || lower[c] == 0 || lower[c] == n;
         lower = base + st * lower;
         if (l2) {
-            glm::ivec3 mid = lower;
-            mid[ce.axis] += 1;
-            const float m = level2_midpoint_value(field_, mid, a0, a1);
+            const float m = s.midpoint[lp * 3 + ce.axis];
             if (mc::inside(a0) != mc::inside(m)) a1 = m;
-            else a0 = m, lower = mid;
+            else a0 = m, lower[ce.axis] += 1;
         }
         id = std::int32_t(out.keys.size());
         out.keys.push_back(lattice::edge_key(lower, ce.axis));
