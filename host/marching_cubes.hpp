@@ -61,4 +61,7 @@ inline unsigned case_index(const float v[8]) {
     return c;
 }
 
+/// Polygonises one cube: its 8 corner values -> triangles over cube edge ids.
+inline const CubeCase& polygonise(const float v[8]) { return case_table()[case_index(v)]; }
+
 }  // namespace trilevel::mc

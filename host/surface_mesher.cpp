@@ -19,7 +19,6 @@
 
 #include "cell_index.hpp"
 #include "crack_stitch.hpp"
-#include "edge_refinement.hpp"
 #include "marching_cubes.hpp"
 
 namespace trilevel {
