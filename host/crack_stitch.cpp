@@ -43,7 +43,9 @@ private:
     bool used_known_ = false;
     int u_ = 0, v_ = 0;
 
-    bool in_block(glm::ivec3 p) const { return glm::all(glm::greaterThanEqual(p, glm::ivec3(0))) && glm::all(glm::lessThanEqual(p, glm::ivec3(b_.n))); }
+    bool in_block(glm::ivec3 p) const {
+        return glm::all(glm::greaterThanEqual(p, glm::ivec3(0))) && glm::all(glm::lessThanEqual(p, glm::ivec3(b_.n)));
+    }
     int index(glm::ivec3 p) const { return (p.z * (b_.n + 1) + p.y) * (b_.n + 1) + p.x; }
     float value(glm::ivec3 p) const {
         if (in_block(p)) return b_.values[index(p)];

@@ -286,24 +286,21 @@ Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame&
     Mesh mesh;
     VertexIndex index(cells.size() * 8);
     std::size_t next = 0;
-    const std::size_t tokens = 4 * std::size_t(tbb::this_task_arena::max_concurrency());
-    tbb::parallel_pipeline(
-        tokens,
-        tbb::make_filter<void, std::size_t>(tbb::filter_mode::serial_in_order,
-                                            [&](tbb::flow_control& fc) -> std::size_t {
-                                                if (next == nc) fc.stop();
-                                                return next++;
-                                            }) &
-            tbb::make_filter<std::size_t, std::size_t>(tbb::filter_mode::parallel,
-                                                       [&](std::size_t ci) {
-                                                           Scratch& s = scratch.local();
-                                                           const std::size_t end = std::min(cells.size(), (ci + 1) * kCellsPerChunk);
-                                                           for (std::size_t i = ci * kCellsPerChunk; i < end; ++i)
-                                                               mesher.mesh(cells[i], s, chunks[ci]);
-                                                           return ci;
-                                                       }) &
-            tbb::make_filter<std::size_t, void>(tbb::filter_mode::serial_in_order,
-                                                [&](std::size_t ci) { number_chunk(chunks[ci], index, ids[ci], mesh); }));
+    auto source = [&](tbb::flow_control& fc) -> std::size_t {
+        if (next == nc) fc.stop();
+        return next++;
+    };
+    auto mesh_chunk = [&](std::size_t ci) {
+        Scratch& s = scratch.local();
+        const std::size_t end = std::min(cells.size(), (ci + 1) * kCellsPerChunk);
+        for (std::size_t i = ci * kCellsPerChunk; i < end; ++i) mesher.mesh(cells[i], s, chunks[ci]);
+        return ci;
+    };
+    auto number = [&](std::size_t ci) { number_chunk(chunks[ci], index, ids[ci], mesh); };
+    tbb::parallel_pipeline(4 * std::size_t(tbb::this_task_arena::max_concurrency()),
+                           tbb::make_filter<void, std::size_t>(tbb::filter_mode::serial_in_order, source) &
+                               tbb::make_filter<std::size_t, std::size_t>(tbb::filter_mode::parallel, mesh_chunk) &
+                               tbb::make_filter<std::size_t, void>(tbb::filter_mode::serial_in_order, number));
 
     // Phase 3: triangles with global indices, in chunk order.
     std::vector<std::size_t> tri_offset(nc + 1, 0);
