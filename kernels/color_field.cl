@@ -1,10 +1,11 @@
 // Stage 2 (DESIGN §3.1, Müller et al. 2003): colour field gradient per particle with poly6
 // weights -> surface particles and normals; fewer than SPLASH_NEIGHBOURS neighbours -> splash.
 // Runs over the binned (sorted) particles; outputs are in sorted order.
-// Build options: SURFACE_GRADIENT, SPLASH_NEIGHBOURS.
+// Build options: SURFACE_GRADIENT, SPLASH_NEIGHBOURS, THIN_NEIGHBOURS.
 
 #define FLAG_SURFACE 1
 #define FLAG_SPLASH 2
+#define FLAG_THIN 4   /* fewer than THIN_NEIGHBOURS neighbours: a small cluster, filament or sheet */
 
 __kernel void color_field(__global const float4* sorted, uint n, float inv_cell,
                           __global const ulong* bin_keys, ulong bin_mask, __global const uint2* range,
@@ -28,6 +29,7 @@ __kernel void color_field(__global const float4* sorted, uint n, float inv_cell,
     uchar f = 0;
     if (length(g) * R > SURFACE_GRADIENT) f |= FLAG_SURFACE;
     if (neighbours < SPLASH_NEIGHBOURS) f |= FLAG_SPLASH | FLAG_SURFACE;
+    if (neighbours < THIN_NEIGHBOURS) f |= FLAG_THIN;
     gradient[i] = (float4)(g, (float)neighbours);
     flags[i] = f;
 }

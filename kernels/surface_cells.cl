@@ -24,12 +24,12 @@ __kernel void mark_surface_cells(__global const float4* sorted, __global const u
 }
 
 __kernel void mark_splash_cells(__global const float4* sorted, __global const uchar* flags, uint n,
-                                float inv_coarse, float R, __global const ulong* cell_keys,
+                                float inv_coarse, float half_box, __global const ulong* cell_keys,
                                 ulong cell_mask, volatile __global uint* cell_flags) {
     uint i = get_global_id(0);
-    if (i >= n || (flags[i] & FLAG_SPLASH) == 0) return;
-    int3 lo = coarse_of(sorted[i].xyz - R, inv_coarse);
-    int3 hi = coarse_of(sorted[i].xyz + R, inv_coarse);
+    if (i >= n || (flags[i] & (FLAG_SPLASH | FLAG_THIN)) == 0) return;
+    int3 lo = coarse_of(sorted[i].xyz - half_box, inv_coarse);
+    int3 hi = coarse_of(sorted[i].xyz + half_box, inv_coarse);
     for (int z = lo.z; z <= hi.z; ++z)
         for (int y = lo.y; y <= hi.y; ++y)
             for (int x = lo.x; x <= hi.x; ++x) {

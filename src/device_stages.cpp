@@ -141,8 +141,10 @@ void cell_curvature_levels(OpenCLRuntime& rt, const BinnedParticles& b, const Pa
     set_args(rt.kernel("accumulate_cell_curvature"), b.sorted, c.flags, n, inv_coarse, kappa, cells.keys,
              cl_ulong(cells.mask()), sum, cnt, mx);
     rt.run("accumulate_cell_curvature", n);
-    set_args(rt.kernel("cell_levels"), cells.keys, cl_ulong(cells.mask()), sum, cnt, mx, cell_flags, threshold, level,
-             cell_kappa);
+    cl::Buffer raw = rt.buffer(cap * sizeof(cl_float), "coarse cell curvature");
+    set_args(rt.kernel("cell_curvature"), cells.keys, cl_ulong(cells.mask()), sum, cnt, mx, raw);
+    rt.run("cell_curvature", cap);
+    set_args(rt.kernel("cell_levels"), cells.keys, cl_ulong(cells.mask()), raw, cell_flags, threshold, level, cell_kappa);
     rt.run("cell_levels", cap);
 }
 
@@ -161,7 +163,7 @@ SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& b, const Pa
     const std::size_t cap = cells.capacity;
     cl::Buffer flags = rt.buffer(cap * sizeof(cl_uint), "coarse cell flags");
     rt.queue().enqueueFillBuffer(flags, cl_uint{0}, 0, cap * sizeof(cl_uint));
-    set_args(rt.kernel("mark_splash_cells"), b.sorted, c.flags, n, inv_coarse, R, cells.keys, cl_ulong(cells.mask()),
+    set_args(rt.kernel("mark_splash_cells"), b.sorted, c.flags, n, inv_coarse, constants::kSplashBoxHalf * r, cells.keys, cl_ulong(cells.mask()),
              flags);
     rt.run("mark_splash_cells", n);
 

@@ -83,7 +83,8 @@ std::string build_options() {
     std::ostringstream o;
     o.precision(9);
     o << "-cl-std=CL1.2 -DSURFACE_GRADIENT=" << constants::kSurfaceGradient << "f"
-      << " -DSPLASH_NEIGHBOURS=" << constants::kSplashNeighbours << " -DEV_LOW=" << constants::kEvLow << "f"
+      << " -DSPLASH_NEIGHBOURS=" << constants::kSplashNeighbours
+      << " -DTHIN_NEIGHBOURS=" << constants::kThinNeighbours << " -DEV_LOW=" << constants::kEvLow << "f"
       << " -DEV_HIGH=" << constants::kEvHigh << "f";
     return o.str();
 }

@@ -19,7 +19,7 @@
 
 namespace trilevel {
 
-float default_curvature_threshold() { return 1.0f; }
+float default_curvature_threshold() { return constants::kDefaultCurvatureThreshold; }
 
 namespace {
 
@@ -138,27 +138,6 @@ void count_mesh(const Mesh& m, Stats& s) {
     }
 }
 
-// EXPERIMENT: level smoothing variants selected by TRILEVEL_SMOOTH.
-void smooth_levels(SurfaceCells& sc, float threshold) {
-    const char* env = std::getenv("TRILEVEL_SMOOTH");
-    int mode = env ? std::atoi(env) : 0;
-    if (mode == 0) return;
-    std::unordered_map<std::uint64_t, std::size_t> idx;
-    for (std::size_t i = 0; i < sc.cells.size(); ++i) idx[lattice::pack(sc.cells[i].coord)] = i;
-    std::vector<float> k2(sc.cells.size());
-    for (std::size_t i = 0; i < sc.cells.size(); ++i) {
-        double sum = 0; int n = 0; float mx = 0;
-        for (int dz = -1; dz <= 1; ++dz) for (int dy = -1; dy <= 1; ++dy) for (int dx = -1; dx <= 1; ++dx) {
-            auto it = idx.find(lattice::pack(sc.cells[i].coord + glm::ivec3(dx, dy, dz)));
-            if (it == idx.end()) continue;
-            sum += sc.curvature[it->second]; ++n; mx = std::max(mx, sc.curvature[it->second]);
-        }
-        k2[i] = mode == 1 ? float(sum / n) : mx;
-    }
-    for (std::size_t i = 0; i < sc.cells.size(); ++i)
-        sc.cells[i].level = (sc.splash[i] || k2[i] >= threshold) ? 3 : 2;
-}
-
 std::uint64_t peak_rss_bytes() {
     rusage u{};
     getrusage(RUSAGE_SELF, &u);
@@ -188,7 +167,6 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     s.splash_particles = classes.splash;
     timer.stage("surface_particles");
     SurfaceCells sc = surface_cells(rt, bins, classes, r, R, g.coarse_edge, threshold, g.forced_level);
-    if (g.forced_level == 0) smooth_levels(sc, threshold);
     for (std::uint8_t f : sc.splash) s.splash_cells += f;
     timer.stage("surface_cells");
 

@@ -17,9 +17,23 @@ constexpr float kSurfaceGradient = 0.55f;
 /// Splash particle: fewer than this many neighbours within R, itself excluded (paper §3).
 constexpr int kSplashNeighbours = 3;
 
+/// Thin particle: fewer than this many neighbours within R. Small clusters, filaments and sheets
+/// one particle thick vanish or break on a lattice of 2r, so cells near them are level 3 like
+/// splash cells (paper Fig. 1: "cells around the isolated pieces are always level-3").
+constexpr int kThinNeighbours = 8;
+
 /// Surface cells: coarse cells overlapping the box x_i ± kSurfaceBoxHalf * r around each surface or
 /// splash particle (paper §3, after Akinci et al. 2012: an AABB of 4r around each surface particle).
 constexpr float kSurfaceBoxHalf = 2.0f;
+
+/// Splash cells: surface cells overlapping x_i ± kSplashBoxHalf * r around a splash or thin particle
+/// (the same box that makes surface cells: the cells that hold its blob). Wider boxes (e.g. ±R)
+/// turned many more cells level 3 around droplets near the main surface, each adding crack patches,
+/// without lowering the deviation from the uniform r mesh (bench/RESULTS.md, calibration).
+constexpr float kSplashBoxHalf = 2.0f;
+
+/// Calibrated default of the curvature threshold (README, "Choosing the threshold").
+constexpr float kDefaultCurvatureThreshold = 4.0f;
 
 /// Solenthaler et al. 2007 eigenvalue thresholds (DESIGN §3.3).
 constexpr float kEvLow = 0.4f;

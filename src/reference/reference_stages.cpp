@@ -180,7 +180,7 @@ float cell_curvature(glm::ivec3 c, const std::unordered_map<std::uint64_t, CellK
 }  // namespace
 
 SurfaceCells surface_cells(const std::vector<glm::vec3>& x, const ParticleFlags& flags, const std::vector<float>& kappa,
-                           glm::vec3 origin, float r, float R, float threshold, int forced_level) {
+                           glm::vec3 origin, float r, float /*R*/, float threshold, int forced_level) {
     const float inv_edge = 1.0f / (constants::kCoarseCell * r);
     std::vector<std::uint64_t> keys;
     std::unordered_set<std::uint64_t> splash_keys;
@@ -189,8 +189,9 @@ SurfaceCells surface_cells(const std::vector<glm::vec3>& x, const ParticleFlags&
         if (!flags.surface[i]) continue;
         for_each_cell(cells_overlapping(x[i], origin, constants::kSurfaceBoxHalf * r, inv_edge),
                       [&](std::uint64_t k) { keys.push_back(k); });
-        if (flags.splash[i])
-            for_each_cell(cells_overlapping(x[i], origin, R, inv_edge), [&](std::uint64_t k) { splash_keys.insert(k); });
+        if (flags.splash[i] || flags.neighbours[i] < constants::kThinNeighbours)
+            for_each_cell(cells_overlapping(x[i], origin, constants::kSplashBoxHalf * r, inv_edge),
+                          [&](std::uint64_t k) { splash_keys.insert(k); });
         CellKappa& ck = per_cell[lattice::pack(coarse_of(x[i] - origin, inv_edge))];
         ck.sum += kappa[i];
         ck.count += 1;
@@ -203,9 +204,21 @@ SurfaceCells surface_cells(const std::vector<glm::vec3>& x, const ParticleFlags&
     out.cells.resize(keys.size());
     out.curvature.resize(keys.size());
     out.splash.resize(keys.size());
+    std::unordered_map<std::uint64_t, float> raw;  // eq. 3 (or the neighbour fallback) per cell
+    for (std::uint64_t k : keys) raw[k] = cell_curvature(lattice::unpack(k), per_cell);
     for (std::size_t c = 0; c < keys.size(); ++c) {
         const glm::ivec3 coord = lattice::unpack(keys[c]);
-        out.curvature[c] = cell_curvature(coord, per_cell);
+        // Mean over the surface cells of the 3x3x3 block (kernels/curvature.cl, cell_levels).
+        double sum = 0.0;
+        int n = 0;
+        for (int dz = -1; dz <= 1; ++dz)
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx) {
+                    const glm::ivec3 q = coord + glm::ivec3(dx, dy, dz);
+                    if (!lattice::in_range(q)) continue;
+                    if (auto it = raw.find(lattice::pack(q)); it != raw.end()) sum += it->second, ++n;
+                }
+        out.curvature[c] = float(sum / n);
         out.splash[c] = splash_keys.count(keys[c]) != 0;
         const bool fine = out.splash[c] || out.curvature[c] >= threshold;
         out.cells[c].coord = coord;

@@ -86,7 +86,8 @@ std::vector<float> curvature(const std::vector<glm::vec3>& x, const ParticleFlag
 
 struct SurfaceCells {
     std::vector<CoarseCell> cells;      ///< sorted by lattice::pack(coord)
-    std::vector<float> curvature;       ///< per cell: paper eq. 3, or the 26-neighbour fallback
+    std::vector<float> curvature;       ///< per cell: paper eq. 3 (or the 26-neighbour fallback),
+                                        ///< averaged over the surface cells of the 3x3x3 block
     std::vector<std::uint8_t> splash;   ///< per cell: inside x_i +- R of a splash particle
 };
 
@@ -95,7 +96,8 @@ struct SurfaceCells {
 /// Surface cells: every cell overlapping the closed box x_i +- kSurfaceBoxHalf * r of a surface
 /// (splash included) particle i, i.e. per axis floor((x - origin - b) * inv_edge) ..
 /// floor((x - origin + b) * inv_edge). A surface cell is a splash cell when it also overlaps
-/// x_i +- R of a splash particle (same formula with b = R); splash boxes add no cells.
+/// x_i +- kSplashBoxHalf*r of a splash or thin (neighbours < kThinNeighbours) particle; splash
+/// boxes add no cells. The level uses the cell curvature averaged over the 3x3x3 block.
 /// forced_level: 0 = adaptive (level 3 if splash or curvature >= threshold, else 2); 2 or 3 =
 /// uniform mode, every cell gets that level.
 SurfaceCells surface_cells(const std::vector<glm::vec3>& x, const ParticleFlags& flags,
