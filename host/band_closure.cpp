@@ -42,7 +42,9 @@ public:
             }
             if (!(any_in && any_out)) continue;
             const glm::ivec3 n = neighbour(cell, open[k]);
-            if (glm::any(glm::lessThan(n, glm::ivec3(0))) || glm::any(glm::greaterThan(n, glm::ivec3(lattice::kMaxCoord / cs_))))
+            // The cell's last lattice point (n + 1) * cs must still fit lattice::kMaxCoord.
+            const glm::ivec3 last_cell(lattice::kMaxCoord / cs_ - 1);
+            if (glm::any(glm::lessThan(n, glm::ivec3(0))) || glm::any(glm::greaterThan(n, last_cell)))
                 throw Error("band closure: the surface leaves the reconstruction domain");
             out.push_back({n, cell.level});
         }

@@ -13,7 +13,8 @@ namespace trilevel {
 /// whose lattice points (at its cell's stride, values after continuity) hold both signs
 /// (< 0 and >= 0). Sorted by lattice::pack(coord), unique; each gets the largest level among the
 /// cells that triggered it. Throws trilevel::Error when such a neighbour falls outside the domain
-/// or a needed point is missing from `field`. The caller evaluates the new cells' points and calls
+/// (a coordinate < 0, or a lattice point beyond lattice::kMaxCoord) or a needed point is missing
+/// from `field`. The caller evaluates the new cells' points and calls
 /// again until the result is empty.
 std::vector<CoarseCell> band_closure_cells(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
                                            const FinePointMap& field);
