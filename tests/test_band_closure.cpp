@@ -73,8 +73,8 @@ TEST_CASE("band closure: largest triggering level, present cells skipped, domain
     // At the top: a neighbour whose points would pass lattice::kMaxCoord.
     const int top = lattice::kMaxCoord / frame.coarse_steps - 1;
     const std::vector<CoarseCell> high = {{{top, 2, 2}, 2}};
-    const auto f3 = test::make_field(high, frame, [](glm::ivec3 p) { return float(p.y) - 9.5f; });
-    CHECK_THROWS_WITH(band_closure_cells(high, frame, f3), Catch::Contains("domain"));
+    const auto f_high = test::make_field(high, frame, [](glm::ivec3 p) { return float(p.y) - 9.5f; });
+    CHECK_THROWS_WITH(band_closure_cells(high, frame, f_high), Catch::Contains("domain"));
     const std::vector<CoarseCell> below = {{{top - 1, 2, 2}, 2}};
     const auto f4 = test::make_field(below, frame, [](glm::ivec3 p) { return float(p.y) - 9.5f; });
     CHECK(band_closure_cells(below, frame, f4).size() == 4);
