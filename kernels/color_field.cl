@@ -7,29 +7,44 @@
 #define FLAG_SPLASH 2
 #define FLAG_THIN 4   /* fewer than THIN_NEIGHBOURS neighbours: a small cluster, filament or sheet */
 
-__kernel void color_field(__global const float4* sorted, uint n, float inv_cell,
-                          __global const ulong* bin_keys, ulong bin_mask, __global const uint2* range,
-                          float R, float volume, __global float4* gradient, __global uchar* flags) {
-    uint i = get_global_id(0);
-    if (i >= n) return;
-    float4 xi = sorted[i];
-    float R2 = R * R;
-    float grad_norm = -945.0f / (32.0f * M_PI_F * pown(R, 9)) * volume;
-    float3 g = (float3)(0.0f);
-    int neighbours = 0;
-    FOR_EACH_NEIGHBOUR_BIN(xi, inv_cell, bin_keys, bin_mask, range, sorted, {
-        float3 d = xi.xyz - pj.xyz;
-        float d2 = dot(d, d);
-        if (d2 < R2 && j != i) {
-            float q = R2 - d2;
-            g += grad_norm * q * q * d;
-            ++neighbours;
+// One work-group per occupied bin: the bin's particles share the 27 bins around it as candidates,
+// gathered once into local memory (same neighbour order as the global loop, see gather_candidates).
+__kernel void color_field(__global const float4* sorted, __global const uint* occupied, float inv_cell,
+                          __global const ulong* bin_keys, ulong bin_mask, __global const uint2* range, float R,
+                          float volume, __global float4* gradient, __global uchar* flags, __local float4* cand,
+                          __local uint* bin_first, __local uint* bin_slot, __local uint* count) {
+    const uint2 own = range[occupied[get_group_id(0)]];
+    const int3 bin = cell_of(sorted[own.x], inv_cell);
+    const uint n_cand = gather_candidates(bin - 1, bin + 1, sorted, bin_keys, bin_mask, range, cand, bin_first,
+                                          bin_slot, count);
+    const float R2 = R * R;
+    const float grad_norm = -945.0f / (32.0f * M_PI_F * pown(R, 9)) * volume;
+    for (uint k = get_local_id(0); k < own.y; k += get_local_size(0)) {
+        const uint i = own.x + k;
+        const float4 xi = sorted[i];
+        float3 g = (float3)(0.0f);
+        int neighbours = 0;
+#define ACCUMULATE(pj)                                    \
+        {                                                 \
+            float3 d = xi.xyz - (pj).xyz;                 \
+            float d2 = dot(d, d);                         \
+            if (d2 < R2 && as_uint((pj).w) != i) {        \
+                float q = R2 - d2;                        \
+                g += grad_norm * q * q * d;               \
+                ++neighbours;                             \
+            }                                             \
         }
-    })
-    uchar f = 0;
-    if (length(g) * R > SURFACE_GRADIENT) f |= FLAG_SURFACE;
-    if (neighbours < SPLASH_NEIGHBOURS) f |= FLAG_SPLASH | FLAG_SURFACE;
-    if (neighbours < THIN_NEIGHBOURS) f |= FLAG_THIN;
-    gradient[i] = (float4)(g, (float)neighbours);
-    flags[i] = f;
+        if (n_cand <= MAX_CANDIDATES) {
+            for (uint j = 0; j < n_cand; ++j) ACCUMULATE(cand[j])
+        } else {
+            FOR_EACH_NEIGHBOUR_BIN(xi, inv_cell, bin_keys, bin_mask, range, sorted, ACCUMULATE(pj))
+        }
+#undef ACCUMULATE
+        uchar f = 0;
+        if (length(g) * R > SURFACE_GRADIENT) f |= FLAG_SURFACE;
+        if (neighbours < SPLASH_NEIGHBOURS) f |= FLAG_SPLASH | FLAG_SURFACE;
+        if (neighbours < THIN_NEIGHBOURS) f |= FLAG_THIN;
+        gradient[i] = (float4)(g, (float)neighbours);
+        flags[i] = f;
+    }
 }

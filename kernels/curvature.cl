@@ -4,29 +4,44 @@
 
 #define KAPPA_FIXED 1048576.0f  /* 2^20 */
 
-// Paper eq. 1-2: kappa_i = sum_j (1 - n_i . n_j) W(x_ij, h), W = max(0, 1 - |x_ij|/h), h = R.
-__kernel void particle_curvature(__global const float4* sorted, __global const uchar* flags, uint n,
-                                 float inv_cell, __global const ulong* bin_keys, ulong bin_mask,
-                                 __global const uint2* range, __global const float4* gradient, float R,
-                                 __global float* kappa) {
-    uint i = get_global_id(0);
-    if (i >= n) return;
-    if ((flags[i] & FLAG_SURFACE) == 0) { kappa[i] = 0.0f; return; }
-    float4 xi = sorted[i];
-    float3 gi = gradient[i].xyz;
-    float3 ni = length(gi) > 0.0f ? -normalize(gi) : (float3)(0.0f);
-    float k = 0.0f;
-    FOR_EACH_NEIGHBOUR_BIN(xi, inv_cell, bin_keys, bin_mask, range, sorted, {
-        if (j != i && (flags[j] & FLAG_SURFACE)) {
-            float d = length(xi.xyz - pj.xyz);
-            if (d < R) {
-                float3 gj = gradient[j].xyz;
-                float3 nj = length(gj) > 0.0f ? -normalize(gj) : (float3)(0.0f);
-                k += (1.0f - dot(ni, nj)) * (1.0f - d / R);
-            }
+inline float3 outward_normal(float4 gradient) {
+    return length(gradient.xyz) > 0.0f ? -normalize(gradient.xyz) : (float3)(0.0f);
+}
+
+// Paper eq. 1-2: kappa_i = sum_j (1 - n_i . n_j) W(x_ij, h), W = max(0, 1 - |x_ij|/h), h = R, over
+// the surface neighbours j. One work-group per occupied bin, candidates in local memory as in
+// color_field.
+__kernel void particle_curvature(__global const float4* sorted, __global const uchar* flags,
+                                 __global const uint* occupied, float inv_cell, __global const ulong* bin_keys,
+                                 ulong bin_mask, __global const uint2* range, __global const float4* gradient,
+                                 float R, __global float* kappa, __local float4* cand, __local uint* bin_first,
+                                 __local uint* bin_slot, __local uint* count) {
+    const uint2 own = range[occupied[get_group_id(0)]];
+    const int3 bin = cell_of(sorted[own.x], inv_cell);
+    const uint n_cand = gather_candidates(bin - 1, bin + 1, sorted, bin_keys, bin_mask, range, cand, bin_first,
+                                          bin_slot, count);
+    for (uint k = get_local_id(0); k < own.y; k += get_local_size(0)) {
+        const uint i = own.x + k;
+        if ((flags[i] & FLAG_SURFACE) == 0) { kappa[i] = 0.0f; continue; }
+        const float4 xi = sorted[i];
+        const float3 ni = outward_normal(gradient[i]);
+        float kap = 0.0f;
+#define ACCUMULATE(pj)                                                          \
+        {                                                                       \
+            uint nb = as_uint((pj).w);                                          \
+            if (nb != i && (flags[nb] & FLAG_SURFACE)) {                        \
+                float d = length(xi.xyz - (pj).xyz);                            \
+                if (d < R) kap += (1.0f - dot(ni, outward_normal(gradient[nb]))) * (1.0f - d / R); \
+            }                                                                   \
         }
-    })
-    kappa[i] = k;
+        if (n_cand <= MAX_CANDIDATES) {
+            for (uint j = 0; j < n_cand; ++j) ACCUMULATE(cand[j])
+        } else {
+            FOR_EACH_NEIGHBOUR_BIN(xi, inv_cell, bin_keys, bin_mask, range, sorted, ACCUMULATE(pj))
+        }
+#undef ACCUMULATE
+        kappa[i] = kap;
+    }
 }
 
 // Paper eq. 3: sums and counts of kappa over the surface particles inside each coarse cell, and

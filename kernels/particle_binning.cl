@@ -44,10 +44,12 @@ __kernel void bin_sort_buckets(__global const uint2* range, ulong capacity, __gl
     }
 }
 
+// w of each sorted position holds its own sorted index (as bits), so gathered candidate lists
+// still know which particle they are.
 __kernel void bin_gather(__global const uint* order, uint n, __global const float4* pos, __global float4* sorted) {
     uint i = get_global_id(0);
     if (i >= n) return;
-    sorted[i] = pos[order[i]];
+    sorted[i] = (float4)(pos[order[i]].xyz, as_float(i));
 }
 
 // Neighbour loop over the 27 bins around `x`; used by every particle and grid-point stage.
@@ -69,3 +71,39 @@ __kernel void bin_gather(__global const uint* order, uint n, __global const floa
                     }                                                                                  \
                 }                                                                                      \
     }
+
+// Work-group helper: gathers the particles of bins blo..bhi (inclusive) into local memory in
+// z, y, x bin order, each bin in index order. For any point inside, its neighbours then appear in
+// the same order as in FOR_EACH_NEIGHBOUR_BIN, so both paths give bit-identical sums. Returns
+// the count, or MAX_CANDIDATES + 1 when they do not fit (the caller then loops over global memory).
+// All work-items of the group must call it.
+#define MAX_CANDIDATES 2048
+#define MAX_BINS 64
+inline uint gather_candidates(int3 blo, int3 bhi, __global const float4* sorted, __global const ulong* bin_keys,
+                              ulong bin_mask, __global const uint2* range, __local float4* cand,
+                              __local uint* bin_first, __local uint* bin_slot, __local uint* count) {
+    const uint lid = get_local_id(0), lsize = get_local_size(0);
+    const int3 bn = bhi - blo + 1;
+    const int nbins = bn.x * bn.y * bn.z;
+    if (lid == 0) {
+        uint total = 0;
+        for (int b = 0; b < nbins && nbins <= MAX_BINS; ++b) {
+            int3 q = blo + (int3)(b % bn.x, (b / bn.x) % bn.y, b / (bn.x * bn.y));
+            long s = key_in_range(q) ? hash_find(bin_keys, bin_mask, pack_key(q)) : -1;
+            bin_slot[b] = (uint)s;
+            bin_first[b] = total;
+            if (s >= 0) total += range[s].y;
+        }
+        *count = (nbins <= MAX_BINS && total <= MAX_CANDIDATES) ? total : MAX_CANDIDATES + 1;
+    }
+    barrier(CLK_LOCAL_MEM_FENCE);
+    const uint n = *count;
+    if (n <= MAX_CANDIDATES)
+        for (int b = 0; b < nbins; ++b) {
+            if ((int)bin_slot[b] < 0) continue;
+            uint2 rg = range[bin_slot[b]];
+            for (uint k = lid; k < rg.y; k += lsize) cand[bin_first[b] + k] = sorted[rg.x + k];
+        }
+    barrier(CLK_LOCAL_MEM_FENCE);
+    return n;
+}

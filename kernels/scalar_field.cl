@@ -37,6 +37,14 @@ inline float solenthaler_f(float ev) {
     return g * g * g - 3.0f * g * g + 3.0f * g;
 }
 
+inline float solenthaler_phi(float4 x, float K, float3 S, float3 G, float3 A0, float3 A1, float3 A2, float r, float R) {
+    if (K <= 0.0f) return R;
+    float3 ybar = S / K;
+    float inv_K = 1.0f / K;
+    float ev = largest_real_eigenvalue((A0 - ybar.x * G) * inv_K, (A1 - ybar.y * G) * inv_K, (A2 - ybar.z * G) * inv_K);
+    return length(ybar) - r * solenthaler_f(ev);
+}
+
 __kernel void scalar_field(__global const uint* pending, uint count, __global const ulong* keys,
                            __global float* values, float step, __global const float4* sorted, float inv_cell,
                            __global const ulong* bin_keys, ulong bin_mask, __global const uint2* range,
@@ -64,10 +72,66 @@ __kernel void scalar_field(__global const uint* pending, uint count, __global co
             A2 += y.z * gk;
         }
     })
-    if (K <= 0.0f) { values[slot] = R; return; }
-    float3 ybar = S / K;
-    float inv_K = 1.0f / K;
-    float ev = largest_real_eigenvalue((A0 - ybar.x * G) * inv_K, (A1 - ybar.y * G) * inv_K,
-                                       (A2 - ybar.z * G) * inv_K);
-    values[slot] = length(ybar) - r * solenthaler_f(ev);
+    values[slot] = solenthaler_phi(x, K, S, G, A0, A1, A2, r, R);
+}
+
+// Candidate particles of one coarse cell gathered into local memory (paper Fig. 3: the particles
+// that influence the cell's points lie within R of the cell box). The list keeps the bins in
+// z, y, x order and each bin in index order, so for every point the neighbours appear in the same
+// order as in the per-point loop above: a point gets bit-identical values whichever cell (or
+// kernel) evaluates it, and a point shared by several cells is evaluated once, by the work-item
+// that claims it first (its NaN "pending" value becomes CLAIMED).
+#define PENDING_BITS 0x7fc00000u
+#define CLAIMED_BITS 0x7fc00001u
+__kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, __global const ulong* keys, ulong mask,
+                                 volatile __global uint* value_bits, float step, __global const float4* sorted,
+                                 float inv_cell, __global const ulong* bin_keys, ulong bin_mask,
+                                 __global const uint2* range, float r, float R, __local float4* cand,
+                                 __local uint* bin_first, __local uint* bin_slot, __local uint* count) {
+    const int4 c = cells[get_group_id(0)];
+    const uint lid = get_local_id(0), lsize = get_local_size(0);
+    const float3 lo = convert_float3(c.xyz * coarse_steps) * step - R;
+    const float3 hi = convert_float3(c.xyz * coarse_steps + coarse_steps) * step + R;
+    const uint n_cand = gather_candidates(convert_int3_rtn(lo * inv_cell), convert_int3_rtn(hi * inv_cell), sorted,
+                                          bin_keys, bin_mask, range, cand, bin_first, bin_slot, count);
+    const int local_list = n_cand <= MAX_CANDIDATES;
+
+    const int side = coarse_steps + 1;
+    const int points = side * side * side;
+    const float R2 = R * R, inv_R2 = 1.0f / R2;
+    for (int l = (int)lid; l < points; l += (int)lsize) {
+        int3 o = (int3)(l % side, (l / side) % side, l / (side * side));
+        if (c.w == 2 && ((o.x | o.y | o.z) & 1)) continue;
+        int3 p = c.xyz * coarse_steps + o;
+        long slot = hash_find(keys, mask, pack_key(p));
+        if (slot < 0) continue;
+        if (atomic_cmpxchg(&value_bits[slot], PENDING_BITS, CLAIMED_BITS) != PENDING_BITS) continue;
+        float4 x = (float4)(convert_float3(p) * step, 0.0f);
+        float K = 0.0f;
+        float3 S = (float3)(0.0f), G = (float3)(0.0f);
+        float3 A0 = (float3)(0.0f), A1 = (float3)(0.0f), A2 = (float3)(0.0f);
+#define ACCUMULATE(pj)                                        \
+        {                                                     \
+            float3 y = (pj).xyz - x.xyz;                      \
+            float d2 = dot(y, y);                             \
+            if (d2 < R2) {                                    \
+                float q = 1.0f - d2 * inv_R2;                 \
+                float k = q * q * q;                          \
+                float3 gk = (6.0f * q * q * inv_R2) * y;      \
+                K += k;                                       \
+                S += k * y;                                   \
+                G += gk;                                      \
+                A0 += y.x * gk;                               \
+                A1 += y.y * gk;                               \
+                A2 += y.z * gk;                               \
+            }                                                 \
+        }
+        if (local_list) {
+            for (uint j = 0; j < n_cand; ++j) ACCUMULATE(cand[j])
+        } else {
+            FOR_EACH_NEIGHBOUR_BIN(x, inv_cell, bin_keys, bin_mask, range, sorted, ACCUMULATE(pj))
+        }
+#undef ACCUMULATE
+        value_bits[slot] = as_uint(solenthaler_phi(x, K, S, G, A0, A1, A2, r, R));
+    }
 }

@@ -55,6 +55,18 @@ DeviceHash insert_growing(OpenCLRuntime& rt, std::size_t capacity, const char* w
     }
 }
 
+// Work-group sizes: a bin holds about (R / 2r)^3 = 8 particles, a level-3 cell 125 points.
+constexpr std::size_t kBinGroup = 32, kCellGroup = 128;
+
+/// The four __local arguments of gather_candidates (particle_binning.cl), from argument `first`.
+void set_candidate_args(cl::Kernel& k, cl_uint first) {
+    constexpr std::size_t kMaxCandidates = 2048, kMaxBins = 64;  // as in particle_binning.cl
+    k.setArg(first, cl::Local(kMaxCandidates * sizeof(cl_float4)));
+    k.setArg(first + 1, cl::Local(kMaxBins * sizeof(cl_uint)));
+    k.setArg(first + 2, cl::Local(kMaxBins * sizeof(cl_uint)));
+    k.setArg(first + 3, cl::Local(sizeof(cl_uint)));
+}
+
 /// Host exclusive scan of bucket counts into (first, count) pairs.
 std::vector<cl_uint2> scan_ranges(const std::vector<cl_uint>& counts) {
     std::vector<cl_uint2> range(counts.size());
@@ -88,7 +100,14 @@ BinnedParticles bin_particles(OpenCLRuntime& rt, const std::vector<glm::vec4>& p
     set_args(rt.kernel("bin_count"), slot_of, n, count);
     rt.run("bin_count", n);
 
-    auto range = scan_ranges(read_buffer<cl_uint>(rt, count, cap));
+    auto counts = read_buffer<cl_uint>(rt, count, cap);
+    auto range = scan_ranges(counts);
+    std::vector<cl_uint> occupied;
+    for (std::size_t s = 0; s < cap; ++s)
+        if (counts[s]) occupied.push_back(cl_uint(s));
+    b.occupied_count = occupied.size();
+    b.occupied = rt.buffer(occupied.size() * sizeof(cl_uint), "occupied bins");
+    rt.queue().enqueueWriteBuffer(b.occupied, CL_TRUE, 0, occupied.size() * sizeof(cl_uint), occupied.data());
     b.range = rt.buffer(cap * sizeof(cl_uint2), "bin ranges");
     rt.queue().enqueueWriteBuffer(b.range, CL_FALSE, 0, cap * sizeof(cl_uint2), range.data());
     rt.queue().enqueueFillBuffer(count, cl_uint{0}, 0, cap * sizeof(cl_uint));
@@ -110,9 +129,10 @@ ParticleClasses classify_particles(OpenCLRuntime& rt, const BinnedParticles& b, 
     c.gradient = rt.buffer(n * sizeof(cl_float4), "colour-field gradients");
     c.flags = rt.buffer(n * sizeof(cl_uchar), "particle flags");
     const float volume = std::pow(2.0f * r, 3.0f);
-    set_args(rt.kernel("color_field"), b.sorted, n, 1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.mask()), b.range, R,
-             volume, c.gradient, c.flags);
-    rt.run("color_field", n);
+    set_args(rt.kernel("color_field"), b.sorted, b.occupied, 1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.mask()),
+             b.range, R, volume, c.gradient, c.flags);
+    set_candidate_args(rt.kernel("color_field"), 10);
+    rt.run_groups("color_field", b.occupied_count, kBinGroup);
     for (cl_uchar f : read_buffer<cl_uchar>(rt, c.flags, n)) {
         c.surface += (f & 1) ? 1 : 0;
         c.splash += (f & 2) ? 1 : 0;
@@ -129,9 +149,10 @@ void cell_curvature_levels(OpenCLRuntime& rt, const BinnedParticles& b, const Pa
     const cl_uint n = cl_uint(b.count);
     const std::size_t cap = cells.capacity;
     kappa = rt.buffer(n * sizeof(cl_float), "particle curvature");
-    set_args(rt.kernel("particle_curvature"), b.sorted, c.flags, n, 1.0f / b.cell, b.bins.keys,
+    set_args(rt.kernel("particle_curvature"), b.sorted, c.flags, b.occupied, 1.0f / b.cell, b.bins.keys,
              cl_ulong(b.bins.mask()), b.range, c.gradient, R, kappa);
-    rt.run("particle_curvature", n);
+    set_candidate_args(rt.kernel("particle_curvature"), 10);
+    rt.run_groups("particle_curvature", b.occupied_count, kBinGroup);
     cl::Buffer sum = rt.buffer(cap * sizeof(cl_ulong), "cell curvature sums");
     cl::Buffer cnt = rt.buffer(cap * sizeof(cl_uint), "cell curvature counts");
     cl::Buffer mx = rt.buffer(cap * sizeof(cl_uint), "cell curvature maxima");
@@ -240,8 +261,13 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<Coa
         if (!needs_growth(c, p.hash)) break;
         grow_fine_points(rt, p, std::max(p.hash.capacity * 2, next_pow2(c.inserted * 2 + 1)));
     }
-
-    evaluate_pending(rt, p, frame, b, r, R);
+    // Stage 6, one work-group per cell over candidates gathered in local memory.
+    set_args(rt.kernel("scalar_field_cells"), cell_buf, cl_int(frame.coarse_steps), p.hash.keys,
+             cl_ulong(p.hash.mask()), p.values, frame.step, b.sorted, 1.0f / b.cell, b.bins.keys,
+             cl_ulong(b.bins.mask()), b.range, r, R);
+    set_candidate_args(rt.kernel("scalar_field_cells"), 13);
+    rt.run_groups("scalar_field_cells", cells.size(), kCellGroup);
+    rt.finish();
 }
 
 void evaluate_pending(OpenCLRuntime& rt, FinePoints& p, const LatticeFrame& frame, const BinnedParticles& b, float r,

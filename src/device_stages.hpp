@@ -30,6 +30,8 @@ struct BinnedParticles {
     cl::Buffer order;       ///< uint: sorted index -> input index
     DeviceHash bins;        ///< occupied bins
     cl::Buffer range;       ///< uint2 per bin slot: first sorted index, count
+    cl::Buffer occupied;    ///< uint: the slots of the non-empty bins
+    std::size_t occupied_count = 0;
 };
 BinnedParticles bin_particles(OpenCLRuntime& rt, const std::vector<glm::vec4>& positions, float cell);
 

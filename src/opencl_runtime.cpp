@@ -149,6 +149,14 @@ void OpenCLRuntime::run(const std::string& name, std::size_t global) {
     events_.emplace_back(name, ev);
 }
 
+void OpenCLRuntime::run_groups(const std::string& name, std::size_t groups, std::size_t local) {
+    if (groups == 0) return;
+    cl::Event ev;
+    queue_.enqueueNDRangeKernel(kernel(name), cl::NullRange, cl::NDRange(groups * local), cl::NDRange(local), nullptr,
+                                &ev);
+    events_.emplace_back(name, ev);
+}
+
 void OpenCLRuntime::finish() {
     queue_.finish();
     for (auto& [name, ev] : events_) {

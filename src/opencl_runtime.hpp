@@ -29,6 +29,8 @@ public:
 
     /// Enqueues `name` over `global` work-items (rounded up to the work-group size), records its event.
     void run(const std::string& name, std::size_t global);
+    /// Enqueues `name` as `groups` work-groups of `local` work-items each.
+    void run_groups(const std::string& name, std::size_t groups, std::size_t local);
 
     /// Waits for the queue and adds the profiled time of every recorded launch to `kernel_ms`.
     void finish();
