@@ -682,7 +682,7 @@ def main():
     ap.add_argument("--no-splashsurf", action="store_true")
     ap.add_argument("--no-openvdb", action="store_true")
     ap.add_argument("--report-only", metavar="STATE.json", default=None,
-                    help="re-render RESULTS.md/CSV/PNG from a saved run (CACHE/last_run.json), run nothing")
+                    help="re-render RESULTS.md/CSV/PNG from a saved run (results.json, written next to the CSV), run nothing")
     args = ap.parse_args()
     if args.report_only:
         with open(args.report_only) as f:
@@ -704,6 +704,9 @@ def main():
     out_dir = os.path.dirname(os.path.abspath(args.out))
     args.csv = args.csv or os.path.join(out_dir, "results.csv")
     args.png = args.png or os.path.join(out_dir, "results.png")
+    args.state = os.path.splitext(args.csv)[0] + ".json"
+    for pth in (args.out, args.csv, args.png):
+        os.makedirs(os.path.dirname(os.path.abspath(pth)), exist_ok=True)
     trilevel = os.path.abspath(args.trilevel)
     if not os.access(trilevel, os.X_OK):
         sys.exit(f"run_bench: error: {trilevel} not found; build it (cmake -S . -B build -DCMAKE_BUILD_TYPE=Release "
@@ -764,7 +767,7 @@ def main():
         if cmp:
             compares[ds["name"]] = cmp
         # Write after every dataset, so a cut-off run still leaves its results.
-        with open(os.path.join(args.cache, "last_run.json"), "w") as f:
+        with open(args.state, "w") as f:
             json.dump(dict(rows=all_rows, checks=checks, compares=compares, meta=meta, datasets=datasets,
                            tools=[dict(name=t["name"], kind=t["kind"]) for t in tools], reps=args.reps,
                            timeout=args.timeout, vdb_closing_max_particles=args.vdb_closing_max_particles), f)
@@ -778,7 +781,7 @@ def main():
     if flops2 and (not meta["flops"] or flops2["gflops"] > meta["flops"]["gflops"]):
         meta["flops"] = flops2
     meta["loadavg_end"] = os.getloadavg()
-    with open(os.path.join(args.cache, "last_run.json"), "w") as f:
+    with open(args.state, "w") as f:
         json.dump(dict(rows=all_rows, checks=checks, compares=compares, meta=meta, datasets=datasets,
                        tools=[dict(name=t["name"], kind=t["kind"]) for t in tools], reps=args.reps,
                        timeout=args.timeout, vdb_closing_max_particles=args.vdb_closing_max_particles), f)
