@@ -7,13 +7,18 @@
 #define FLAG_SPLASH 2
 #define FLAG_THIN 4   /* fewer than THIN_NEIGHBOURS neighbours: a small cluster, filament or sheet */
 
-// One work-group per occupied bin: the bin's particles share the 27 bins around it as candidates,
+// Each work-group takes `per_group` occupied bins in turn (launching a work-group costs more than
+// a bin's work on CPU devices); a bin's particles share the 27 bins around it as candidates,
 // gathered once into local memory (same neighbour order as the global loop, see gather_candidates).
-__kernel void color_field(__global const float4* sorted, __global const uint* occupied, float inv_cell,
+__kernel void color_field(__global const float4* sorted, __global const uint* occupied, uint occupied_count,
+                          uint per_group, float inv_cell,
                           __global const ulong* bin_keys, ulong bin_mask, __global const uint2* range, float R,
                           float volume, __global float4* gradient, __global uchar* flags, __local float4* cand,
                           __local uint* bin_first, __local uint* bin_slot, __local uint* count) {
-    const uint2 own = range[occupied[get_group_id(0)]];
+  const uint first_bin = get_group_id(0) * per_group;
+  for (uint ob = first_bin; ob < min(first_bin + per_group, occupied_count); ++ob) {
+    barrier(CLK_LOCAL_MEM_FENCE);  // the previous bin is done with the candidates
+    const uint2 own = range[occupied[ob]];
     const int3 bin = cell_of(sorted[own.x], inv_cell);
     const uint n_cand = gather_candidates(bin - 1, bin + 1, sorted, bin_keys, bin_mask, range, cand, bin_first,
                                           bin_slot, count);
@@ -47,4 +52,5 @@ __kernel void color_field(__global const float4* sorted, __global const uint* oc
         gradient[i] = (float4)(g, (float)neighbours);
         flags[i] = f;
     }
+  }
 }

@@ -12,11 +12,14 @@ inline float3 outward_normal(float4 gradient) {
 // the surface neighbours j. One work-group per occupied bin, candidates in local memory as in
 // color_field.
 __kernel void particle_curvature(__global const float4* sorted, __global const uchar* flags,
-                                 __global const uint* occupied, float inv_cell, __global const ulong* bin_keys,
+                                 __global const uint* occupied, uint occupied_count, uint per_group, float inv_cell, __global const ulong* bin_keys,
                                  ulong bin_mask, __global const uint2* range, __global const float4* gradient,
                                  float R, __global float* kappa, __local float4* cand, __local uint* bin_first,
                                  __local uint* bin_slot, __local uint* count) {
-    const uint2 own = range[occupied[get_group_id(0)]];
+  const uint first_bin = get_group_id(0) * per_group;
+  for (uint ob = first_bin; ob < min(first_bin + per_group, occupied_count); ++ob) {
+    barrier(CLK_LOCAL_MEM_FENCE);  // the previous bin is done with the candidates
+    const uint2 own = range[occupied[ob]];
     const int3 bin = cell_of(sorted[own.x], inv_cell);
     const uint n_cand = gather_candidates(bin - 1, bin + 1, sorted, bin_keys, bin_mask, range, cand, bin_first,
                                           bin_slot, count);
@@ -42,6 +45,7 @@ __kernel void particle_curvature(__global const float4* sorted, __global const u
 #undef ACCUMULATE
         kappa[i] = kap;
     }
+  }
 }
 
 // Paper eq. 3: sums and counts of kappa over the surface particles inside each coarse cell, and

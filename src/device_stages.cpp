@@ -57,6 +57,7 @@ DeviceHash insert_growing(OpenCLRuntime& rt, std::size_t capacity, const char* w
 
 // Work-group sizes: a bin holds about (R / 2r)^3 = 8 particles, a level-3 cell 125 points.
 constexpr std::size_t kBinGroup = 32, kCellGroup = 128;
+constexpr std::size_t kBinsPerGroup = 16;  // bins one work-group takes in turn
 
 /// The four __local arguments of gather_candidates (particle_binning.cl), from argument `first`.
 void set_candidate_args(cl::Kernel& k, cl_uint first) {
@@ -129,10 +130,10 @@ ParticleClasses classify_particles(OpenCLRuntime& rt, const BinnedParticles& b, 
     c.gradient = rt.buffer(n * sizeof(cl_float4), "colour-field gradients");
     c.flags = rt.buffer(n * sizeof(cl_uchar), "particle flags");
     const float volume = std::pow(2.0f * r, 3.0f);
-    set_args(rt.kernel("color_field"), b.sorted, b.occupied, 1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.mask()),
-             b.range, R, volume, c.gradient, c.flags);
-    set_candidate_args(rt.kernel("color_field"), 10);
-    rt.run_groups("color_field", b.occupied_count, kBinGroup);
+    set_args(rt.kernel("color_field"), b.sorted, b.occupied, cl_uint(b.occupied_count), cl_uint(kBinsPerGroup),
+             1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.mask()), b.range, R, volume, c.gradient, c.flags);
+    set_candidate_args(rt.kernel("color_field"), 12);
+    rt.run_groups("color_field", (b.occupied_count + kBinsPerGroup - 1) / kBinsPerGroup, kBinGroup);
     for (cl_uchar f : read_buffer<cl_uchar>(rt, c.flags, n)) {
         c.surface += (f & 1) ? 1 : 0;
         c.splash += (f & 2) ? 1 : 0;
@@ -149,10 +150,10 @@ void cell_curvature_levels(OpenCLRuntime& rt, const BinnedParticles& b, const Pa
     const cl_uint n = cl_uint(b.count);
     const std::size_t cap = cells.capacity;
     kappa = rt.buffer(n * sizeof(cl_float), "particle curvature");
-    set_args(rt.kernel("particle_curvature"), b.sorted, c.flags, b.occupied, 1.0f / b.cell, b.bins.keys,
-             cl_ulong(b.bins.mask()), b.range, c.gradient, R, kappa);
-    set_candidate_args(rt.kernel("particle_curvature"), 10);
-    rt.run_groups("particle_curvature", b.occupied_count, kBinGroup);
+    set_args(rt.kernel("particle_curvature"), b.sorted, c.flags, b.occupied, cl_uint(b.occupied_count),
+             cl_uint(kBinsPerGroup), 1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.mask()), b.range, c.gradient, R, kappa);
+    set_candidate_args(rt.kernel("particle_curvature"), 12);
+    rt.run_groups("particle_curvature", (b.occupied_count + kBinsPerGroup - 1) / kBinsPerGroup, kBinGroup);
     cl::Buffer sum = rt.buffer(cap * sizeof(cl_ulong), "cell curvature sums");
     cl::Buffer cnt = rt.buffer(cap * sizeof(cl_uint), "cell curvature counts");
     cl::Buffer mx = rt.buffer(cap * sizeof(cl_uint), "cell curvature maxima");
