@@ -44,6 +44,17 @@ public:
         return values_[s];
     }
 
+    /// Makes room for `extra` more keys at load factor <= 0.5, rehashing into a larger table if needed.
+    void reserve_more(std::size_t extra) {
+        std::size_t used = 0;
+        for (std::uint64_t k : keys_) used += k != lattice::kEmptyKey;
+        if (2 * (used + extra) <= keys_.size()) return;
+        FinePointMap bigger(2 * (used + extra));
+        for (std::size_t s = 0; s < keys_.size(); ++s)
+            if (keys_[s] != lattice::kEmptyKey) bigger.insert(keys_[s], values_[s]);
+        *this = std::move(bigger);
+    }
+
     std::size_t capacity() const { return keys_.size(); }
     const std::vector<std::uint64_t>& keys() const { return keys_; }
     std::vector<float>& values() { return values_; }

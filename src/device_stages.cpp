@@ -221,6 +221,7 @@ std::size_t estimate_points(const std::vector<CoarseCell>& cells, int coarse_ste
     for (const auto& c : cells) {
         std::size_t side = std::size_t(coarse_steps / stride(c.level));
         total += side * side * side + side * side * 3 / 2;
+        if (c.level == 2) total += 2 * side * side;  // refined midpoints of crossed edges (edge_refinement.hpp)
     }
     return total;
 }
@@ -286,9 +287,9 @@ void evaluate_pending(OpenCLRuntime& rt, FinePoints& p, const LatticeFrame& fram
     rt.finish();
 }
 
-void insert_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<std::uint64_t>& keys,
-                         const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
-    if (keys.empty()) return;
+std::vector<float> insert_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<std::uint64_t>& keys,
+                                       const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
+    if (keys.empty()) return {};
     const cl_uint n = cl_uint(keys.size());
     cl::Buffer in = rt.buffer(n * sizeof(cl_ulong), "extra fine points");
     cl::Buffer slots = rt.buffer(n * sizeof(cl_long), "extra fine point slots");
@@ -303,6 +304,10 @@ void insert_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<std
         grow_fine_points(rt, p, std::max(p.hash.capacity * 2, next_pow2(c.inserted * 2 + 1)));
     }
     evaluate_pending(rt, p, frame, b, r, R);
+    cl::Buffer out = rt.buffer(n * sizeof(cl_float), "extra fine point values");
+    set_args(rt.kernel("gather_values"), slots, n, p.values, out);
+    rt.run("gather_values", n);
+    return read_buffer<float>(rt, out, n);
 }
 
 FinePointMap read_fine_points(OpenCLRuntime& rt, const FinePoints& p) {

@@ -67,8 +67,9 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vecto
 /// Evaluates every point inserted but not evaluated yet.
 void evaluate_pending(OpenCLRuntime& rt, FinePoints& points, const LatticeFrame& frame, const BinnedParticles& bins,
                       float r, float R);
-/// Inserts the given lattice point keys (growing the table as needed) and evaluates the new ones.
-void insert_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vector<std::uint64_t>& keys,
+/// Inserts the given lattice point keys (growing the table as needed), evaluates the new ones and
+/// returns the values of all of them, in order.
+std::vector<float> insert_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vector<std::uint64_t>& keys,
                          const LatticeFrame& frame, const BinnedParticles& bins, float r, float R);
 /// Copies the table to the host.
 FinePointMap read_fine_points(OpenCLRuntime& rt, const FinePoints& points);

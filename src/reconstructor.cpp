@@ -194,9 +194,10 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     s.time_ms.emplace_back("band_closure", t_closure);
     timer.restart();  // the loop recorded its own two entries
     if (auto mids = level2_crossing_midpoints(cells, g.frame, field); !mids.empty()) {
-        insert_and_evaluate(rt, points, mids, g.frame, bins, r, R);
-        field = read_fine_points(rt, points);
-        apply_transition_continuity(cells, g.frame, field);  // the re-read table holds raw values again
+        // Continuity never touches these points (no level-3 cell holds them): add them as they are.
+        std::vector<float> values = insert_and_evaluate(rt, points, mids, g.frame, bins, r, R);
+        field.reserve_more(mids.size());
+        for (std::size_t i = 0; i < mids.size(); ++i) field.insert(mids[i], values[i]);
     }
     timer.stage("edge_refinement");
     s.surface_cells = cells.size();
