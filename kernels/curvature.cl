@@ -4,6 +4,18 @@
 
 #define KAPPA_FIXED 1048576.0f  /* 2^20 */
 
+// Runs BODY with `long t` = the slot of every coarse cell of the 3x3x3 block around `c` (itself
+// included) that is in the table, in z, y, x order.
+#define FOR_EACH_CELL_IN_BLOCK(c, cell_keys, cell_mask, BODY)                      \
+    for (int dz = -1; dz <= 1; ++dz)                                               \
+        for (int dy = -1; dy <= 1; ++dy)                                           \
+            for (int dx = -1; dx <= 1; ++dx) {                                     \
+                int3 q = (c) + (int3)(dx, dy, dz);                                 \
+                if (!key_in_range(q)) continue;                                    \
+                long t = hash_find((cell_keys), (cell_mask), pack_key(q));         \
+                if (t >= 0) BODY                                                   \
+            }
+
 inline float3 outward_normal(float4 gradient) {
     return length(gradient.xyz) > 0.0f ? -normalize(gradient.xyz) : (float3)(0.0f);
 }
@@ -77,16 +89,8 @@ __kernel void cell_curvature(__global const ulong* cell_keys, ulong cell_mask, _
         cell_kappa[s] = ((float)kappa_sum[s] / KAPPA_FIXED) / (float)kappa_count[s];
         return;
     }
-    int3 c = unpack_key(key);
     uint m = 0;
-    for (int dz = -1; dz <= 1; ++dz)
-        for (int dy = -1; dy <= 1; ++dy)
-            for (int dx = -1; dx <= 1; ++dx) {
-                int3 q = c + (int3)(dx, dy, dz);
-                if (!key_in_range(q)) continue;
-                long t = hash_find(cell_keys, cell_mask, pack_key(q));
-                if (t >= 0) m = max(m, kappa_max[t]);
-            }
+    FOR_EACH_CELL_IN_BLOCK(unpack_key(key), cell_keys, cell_mask, { m = max(m, kappa_max[t]); })
     cell_kappa[s] = as_float(m);
 }
 
@@ -100,17 +104,9 @@ __kernel void cell_levels(__global const ulong* cell_keys, ulong cell_mask, __gl
     if (s > cell_mask) return;
     ulong key = cell_keys[s];
     if (key == EMPTY_KEY) return;
-    int3 c = unpack_key(key);
     float sum = 0.0f;
     int n = 0;
-    for (int dz = -1; dz <= 1; ++dz)
-        for (int dy = -1; dy <= 1; ++dy)
-            for (int dx = -1; dx <= 1; ++dx) {
-                int3 q = c + (int3)(dx, dy, dz);
-                if (!key_in_range(q)) continue;
-                long t = hash_find(cell_keys, cell_mask, pack_key(q));
-                if (t >= 0) { sum += cell_kappa[t]; ++n; }
-            }
+    FOR_EACH_CELL_IN_BLOCK(unpack_key(key), cell_keys, cell_mask, { sum += cell_kappa[t]; ++n; })
     float k = sum / (float)n;
     smoothed[s] = k;
     level[s] = ((cell_flags[s] & CELL_SPLASH) || k >= threshold) ? 3 : 2;

@@ -33,21 +33,6 @@ inline int key_in_range(int3 p) {
            p.z <= (int)AXIS_MASK;
 }
 
-// Returns the slot holding `key` after inserting it, or -1 when the table is full.
-inline long hash_insert(volatile __global ulong* keys, ulong mask, ulong key) {
-    ulong s = trilevel_hash(key) & mask;
-    for (ulong i = 0; i <= mask; ++i) {
-        ulong cur = keys[s];
-        if (cur == key) return (long)s;
-        if (cur == EMPTY_KEY) {
-            ulong prev = atom_cmpxchg(&keys[s], EMPTY_KEY, key);
-            if (prev == EMPTY_KEY || prev == key) return (long)s;
-        }
-        s = (s + 1) & mask;
-    }
-    return -1;
-}
-
 // Returns the slot of `key`, or -1 when absent.
 inline long hash_find(const __global ulong* keys, ulong mask, ulong key) {
     ulong s = trilevel_hash(key) & mask;
@@ -60,8 +45,9 @@ inline long hash_find(const __global ulong* keys, ulong mask, ulong key) {
     return -1;
 }
 
-// Inserts and keeps the table's counters: stats[0] = overflow flag, stats[1] = keys newly inserted
-// (the host grows the table when it passes half the capacity).
+// Inserts `key` and returns its slot, or -1 when the table is full. Keeps the table's counters:
+// stats[0] = overflow flag, stats[1] = keys newly inserted (the host grows the table when it
+// passes half the capacity).
 inline long hash_insert_counted(volatile __global ulong* keys, ulong mask, ulong key, volatile __global int* stats) {
     ulong s = trilevel_hash(key) & mask;
     for (ulong i = 0; i <= mask; ++i) {

@@ -7,12 +7,14 @@
 
 #include <glm/glm.hpp>
 
+#include "mesh_test_support.hpp"
 #include "mesh_topology.hpp"
 #include "test_support.hpp"
 #include "trilevel/io.hpp"
 #include "trilevel/trilevel.hpp"
 
 using namespace trilevel;
+using trilevel::test::signed_volume;
 
 namespace {
 
@@ -27,19 +29,6 @@ Params params(float r, Mode mode, float cell = 1.0f) {
     p.mode = mode;
     p.cell = cell;
     return p;
-}
-
-double signed_volume(const Mesh& m) {
-    double v = 0;
-    for (std::size_t t = 0; t < m.triangle_count(); ++t) {
-        const float* a = &m.positions[3 * m.triangles[3 * t]];
-        const float* b = &m.positions[3 * m.triangles[3 * t + 1]];
-        const float* c = &m.positions[3 * m.triangles[3 * t + 2]];
-        v += (double(a[0]) * (double(b[1]) * c[2] - double(b[2]) * c[1]) -
-              double(a[1]) * (double(b[0]) * c[2] - double(b[2]) * c[0]) +
-              double(a[2]) * (double(b[0]) * c[1] - double(b[1]) * c[0])) / 6.0;
-    }
-    return v;
 }
 
 bool same_mesh(const Mesh& a, const Mesh& b) {
