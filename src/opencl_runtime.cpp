@@ -1,5 +1,6 @@
 #include "opencl_runtime.hpp"
 
+#include <cstdio>
 #include <cstdlib>
 #include <sstream>
 #include <string_view>
@@ -77,6 +78,12 @@ int choose_device(int requested, const std::vector<cl::Device>& devices) {
     for (std::size_t i = 0; i < devices.size(); ++i)
         if (devices[i].getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_CPU) return int(i);
     return 0;
+}
+
+std::string mib(std::uint64_t bytes) {
+    char buf[32];
+    std::snprintf(buf, sizeof(buf), "%.1f MiB", double(bytes) / double(1 << 20));
+    return buf;
 }
 
 std::string build_options() {
@@ -175,15 +182,25 @@ std::map<std::string, double> OpenCLRuntime::take_kernel_times() {
 cl::Buffer OpenCLRuntime::buffer(std::size_t bytes, const char* what) {
     bytes = std::max<std::size_t>(bytes, 16);
     if (bytes > info_.max_allocation)
-        throw Error(std::string("the ") + what + " needs " + std::to_string(bytes >> 20) + " MiB in one buffer, more than '" +
-                    info_.name + "' allows (" + std::to_string(info_.max_allocation >> 20) +
-                    " MiB; PoCL: raise POCL_MEMORY_LIMIT) — use a larger cell or a smaller domain");
+        throw Error(std::string("the ") + what + " needs " + mib(bytes) + " in one buffer, more than '" + info_.name +
+                    "' allows (" + mib(info_.max_allocation) +
+                    "; PoCL: raise POCL_MEMORY_LIMIT); use a larger cell or a smaller domain");
+    if (budget_ && allocated_ + bytes > budget_)
+        throw Error(std::string("the ") + what + " would bring device memory to " + mib(allocated_ + bytes) +
+                    ", over the budget of " + mib(budget_) +
+                    " (--memory-limit or the device's memory); use a larger cell or a smaller domain");
+    allocated_ += bytes;
     try {
         return cl::Buffer(context_, CL_MEM_READ_WRITE, bytes);
     } catch (const cl::Error& e) {
-        throw Error(std::string("cannot allocate the ") + what + " (" + std::to_string(bytes >> 20) +
-                    " MiB) on the OpenCL device: " + cl_error_name(e.err()));
+        throw Error(std::string("cannot allocate the ") + what + " (" + mib(bytes) +
+                    ") on the OpenCL device: " + cl_error_name(e.err()));
     }
+}
+
+void OpenCLRuntime::reset_budget(std::uint64_t limit) {
+    budget_ = limit ? std::min<std::uint64_t>(limit, info_.global_memory) : info_.global_memory;
+    allocated_ = 0;
 }
 
 std::string cl_error_name(cl_int code) {

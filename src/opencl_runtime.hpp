@@ -36,8 +36,13 @@ public:
     void finish();
     std::map<std::string, double> take_kernel_times();
 
-    /// A device buffer of `bytes`, checked against the device's limits first.
+    /// A device buffer of `bytes`, checked against the device's limits and the memory budget first.
     cl::Buffer buffer(std::size_t bytes, const char* what);
+
+    /// Starts a reconstruction's accounting: `limit` bytes (0: the device's global memory).
+    void reset_budget(std::uint64_t limit);
+    /// Bytes of device buffers allocated since reset_budget (an upper bound of what is held).
+    std::uint64_t allocated_bytes() const { return allocated_; }
 
 private:
     void build_program();
@@ -51,6 +56,7 @@ private:
     std::vector<std::pair<std::string, cl::Event>> events_;
     std::map<std::string, double> kernel_ms_;
     std::size_t work_group_ = 0;
+    std::uint64_t budget_ = 0, allocated_ = 0;
 };
 
 /// Human-readable name of an OpenCL error code (CL_OUT_OF_RESOURCES, ...).

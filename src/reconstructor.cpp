@@ -159,6 +159,7 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     const float threshold = p.curvature_threshold > 0.0f ? p.curvature_threshold : default_curvature_threshold();
     s.particles = n;
     s.device = rt.info().name;
+    rt.reset_budget(p.memory_limit_bytes);
 
     BinnedParticles bins = bin_particles(rt, relative_positions(xyz, n, g.origin), R);
     timer.stage("binning");
@@ -210,6 +211,7 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     s.closed = is_closed_and_oriented(mesh);
     for (auto& [name, ms] : rt.take_kernel_times()) s.kernel_ms.emplace_back(name, ms);
     s.peak_memory_bytes = peak_rss_bytes();
+    s.device_memory_bytes = rt.allocated_bytes();
     return mesh;
 }
 

@@ -26,6 +26,7 @@ std::string stats_to_json(const Stats& s, const Params& p) {
     for (const auto& [name, ms] : s.kernel_ms) k[name] = ms;
     j["kernel_ms"] = k;
     j["peak_memory_bytes"] = s.peak_memory_bytes;
+    j["device_memory_bytes"] = s.device_memory_bytes;
     j["closed"] = s.closed;
     j["device"] = s.device;
     j["parameters"] = {{"particle_radius", p.particle_radius},

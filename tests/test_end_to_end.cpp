@@ -137,6 +137,11 @@ TEST_CASE("bad input to the library is a clear error", "[e2e][errors]") {
     REQUIRE_THROWS_WITH(rec.reconstruct(ok, 2, params(0.0f, Mode::Adaptive)), Catch::Contains("particle radius"));
     REQUIRE_THROWS_WITH(rec.reconstruct(ok, 2, params(-1.0f, Mode::Adaptive)), Catch::Contains("particle radius"));
     REQUIRE_THROWS_WITH(rec.reconstruct(ok, 2, params(0.025f, Mode::Uniform, 3.0f)), Catch::Contains("cell size"));
+    // A memory budget too small for the buffers: an error naming the budget, not an allocation.
+    Params tight = params(0.025f, Mode::Adaptive);
+    tight.memory_limit_bytes = 64 * 1024;
+    ParticleSet sphere = generate_scene("sphere", 0.025f, 1);
+    REQUIRE_THROWS_WITH(rec.reconstruct(sphere.positions.data(), sphere.size(), tight), Catch::Contains("budget"));
     // Particles 1e7 radii apart do not fit the 20-bit lattice: an error, not an allocation.
     const float far[6] = {0, 0, 0, 1e6f, 0, 0};
     REQUIRE_THROWS_WITH(rec.reconstruct(far, 2, params(0.025f, Mode::Adaptive)), Catch::Contains("lattice"));

@@ -77,7 +77,7 @@ struct Stats {
     std::vector<std::pair<std::string, double>> time_ms;  ///< per stage in pipeline order, then "total"
     std::vector<std::pair<std::string, double>> kernel_ms; ///< OpenCL profiling time per kernel
     std::uint64_t peak_memory_bytes = 0;   ///< process peak resident memory after the run
-    std::uint64_t device_memory_bytes = 0; ///< largest total of device buffers held at once
+    std::uint64_t device_memory_bytes = 0; ///< device buffers allocated during the run (an upper bound)
     bool closed = false;                   ///< every edge used twice in opposite directions
     std::string device;                    ///< the OpenCL device that ran the kernels
 };
