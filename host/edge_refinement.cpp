@@ -10,10 +10,11 @@
 
 namespace trilevel {
 
-std::vector<std::uint64_t> level2_crossing_midpoints(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
-                                                     const FinePointMap& field) {
+Level2Midpoints level2_crossing_midpoints(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
+                                          const FinePointMap& field) {
     const int cs = frame.coarse_steps;
     tbb::enumerable_thread_specific<std::vector<std::uint64_t>> found;
+    std::vector<std::uint8_t> holds(cells.size(), 0);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 64), [&](const auto& range) {
         auto& out = found.local();
         for (std::size_t i = range.begin(); i != range.end(); ++i) {
@@ -33,16 +34,18 @@ std::vector<std::uint64_t> level2_crossing_midpoints(const std::vector<CoarseCel
                             if (!vb || mc::inside(*va) == mc::inside(*vb)) continue;
                             glm::ivec3 mid = p;
                             mid[axis] += 1;
-                            if (!field.find(mid)) out.push_back(lattice::pack(mid));
+                            if (!field.find(mid)) out.push_back(lattice::pack(mid)), holds[i] = 1;
                         }
                     }
         }
     });
-    std::vector<std::uint64_t> keys;
-    for (auto& v : found) keys.insert(keys.end(), v.begin(), v.end());
-    std::sort(keys.begin(), keys.end());
-    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
-    return keys;
+    Level2Midpoints out;
+    for (auto& v : found) out.keys.insert(out.keys.end(), v.begin(), v.end());
+    std::sort(out.keys.begin(), out.keys.end());
+    out.keys.erase(std::unique(out.keys.begin(), out.keys.end()), out.keys.end());
+    for (std::size_t i = 0; i < cells.size(); ++i)
+        if (holds[i]) out.holders.push_back(cells[i]);
+    return out;
 }
 
 }  // namespace trilevel

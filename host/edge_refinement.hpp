@@ -16,10 +16,16 @@
 
 namespace trilevel {
 
-/// Keys of the midpoints of level-2 edges that the surface crosses (end signs differ) and that
-/// `field` does not hold yet, sorted and unique. Run after band closure and continuity.
-std::vector<std::uint64_t> level2_crossing_midpoints(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
-                                                     const FinePointMap& field);
+/// The midpoints to evaluate and the level-2 cells that hold them.
+struct Level2Midpoints {
+    std::vector<std::uint64_t> keys;  ///< sorted, unique
+    std::vector<CoarseCell> holders;  ///< level-2 cells with at least one of them, in the input order
+};
+
+/// Midpoints of level-2 edges that the surface crosses (end signs differ) and that `field` does
+/// not hold yet. Run after band closure and continuity.
+Level2Midpoints level2_crossing_midpoints(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
+                                          const FinePointMap& field);
 
 /// The value the level-2 vertex rule uses at the midpoint `mid` of a level-2 edge with end values
 /// va, vb: the field's value when present (a refined or continuity point), else the linear mean.

@@ -20,44 +20,89 @@ inline float3 outward_normal(float4 gradient) {
     return length(gradient.xyz) > 0.0f ? -normalize(gradient.xyz) : (float3)(0.0f);
 }
 
+// Paper eq. 1-2 for surface particle i over the 27 bins around it in global memory (bins whose
+// candidates do not fit in local memory).
+inline float curvature_global(uint i, __global const float4* sorted, __global const uchar* flags, float inv_cell,
+                              __global const ulong* bin_keys, ulong bin_mask, __global const uint2* range,
+                              __global const float4* gradient, float R) {
+    const float4 xi = sorted[i];
+    const float3 ni = outward_normal(gradient[i]);
+    float kap = 0.0f;
+    FOR_EACH_NEIGHBOUR_BIN(xi, inv_cell, bin_keys, bin_mask, range, sorted, {
+        if (j != i && (flags[j] & FLAG_SURFACE)) {
+            float d = length(xi.xyz - pj.xyz);
+            if (d < R) kap += (1.0f - dot(ni, outward_normal(gradient[j]))) * (1.0f - d / R);
+        }
+    })
+    return kap;
+}
+
 // Paper eq. 1-2: kappa_i = sum_j (1 - n_i . n_j) W(x_ij, h), W = max(0, 1 - |x_ij|/h), h = R, over
-// the surface neighbours j. One work-group per occupied bin, candidates in local memory as in
-// color_field.
+// the surface neighbours j. Work-groups take bins in turn with candidates (positions and colour
+// gradients) in local memory; a work-item takes 8 particles at once, one per vector lane, each
+// adding its neighbours in candidate order (as in color_field).
 __kernel void particle_curvature(__global const float4* sorted, __global const uchar* flags,
-                                 __global const uint* occupied, uint occupied_count, uint per_group, float inv_cell, __global const ulong* bin_keys,
-                                 ulong bin_mask, __global const uint2* range, __global const float4* gradient,
-                                 float R, __global float* kappa, __local float4* cand, __local uint* bin_first,
-                                 __local uint* bin_slot, __local uint* count) {
-  const uint first_bin = get_group_id(0) * per_group;
-  for (uint ob = first_bin; ob < min(first_bin + per_group, occupied_count); ++ob) {
-    barrier(CLK_LOCAL_MEM_FENCE);  // the previous bin is done with the candidates
-    const uint2 own = range[occupied[ob]];
-    const int3 bin = cell_of(sorted[own.x], inv_cell);
-    const uint n_cand = gather_candidates(bin - 1, bin + 1, sorted, bin_keys, bin_mask, range, cand, bin_first,
-                                          bin_slot, count);
-    for (uint k = get_local_id(0); k < own.y; k += get_local_size(0)) {
-        const uint i = own.x + k;
-        if ((flags[i] & FLAG_SURFACE) == 0) { kappa[i] = 0.0f; continue; }
-        const float4 xi = sorted[i];
-        const float3 ni = outward_normal(gradient[i]);
-        float kap = 0.0f;
-#define ACCUMULATE(pj)                                                          \
-        {                                                                       \
-            uint nb = as_uint((pj).w);                                          \
-            if (nb != i && (flags[nb] & FLAG_SURFACE)) {                        \
-                float d = length(xi.xyz - (pj).xyz);                            \
-                if (d < R) kap += (1.0f - dot(ni, outward_normal(gradient[nb]))) * (1.0f - d / R); \
-            }                                                                   \
+                                 __global const uint* occupied, uint occupied_count, uint per_group, float inv_cell,
+                                 __global const ulong* bin_keys, ulong bin_mask, __global const uint2* range,
+                                 __global const float4* gradient, float R, __global float* kappa,
+                                 __local float4* cand, __local uint* bin_first, __local uint* bin_slot,
+                                 __local uint* count, __local float4* cand_gradient) {
+    const uint lid = get_local_id(0), lsize = get_local_size(0);
+    const uint first_bin = get_group_id(0) * per_group;
+    for (uint ob = first_bin; ob < min(first_bin + per_group, occupied_count); ++ob) {
+        barrier(CLK_LOCAL_MEM_FENCE);  // the previous bin is done with the candidates
+        const uint2 own = range[occupied[ob]];
+        uint surface = 0;  // most bins lie inside the fluid: nothing to do there
+        for (uint k = 0; k < own.y; ++k) surface |= flags[own.x + k] & FLAG_SURFACE;
+        if (!surface) {
+            for (uint k = lid; k < own.y; k += lsize) kappa[own.x + k] = 0.0f;
+            continue;
         }
-        if (n_cand <= MAX_CANDIDATES) {
-            for (uint j = 0; j < n_cand; ++j) ACCUMULATE(cand[j])
-        } else {
-            FOR_EACH_NEIGHBOUR_BIN(xi, inv_cell, bin_keys, bin_mask, range, sorted, ACCUMULATE(pj))
+        const int3 bin = cell_of(sorted[own.x], inv_cell);
+        const uint n_cand = gather_candidates(bin - 1, bin + 1, sorted, bin_keys, bin_mask, range, cand, bin_first,
+                                              bin_slot, count);
+        if (n_cand > MAX_CANDIDATES) {
+            for (uint k = lid; k < own.y; k += lsize) {
+                const uint i = own.x + k;
+                kappa[i] = (flags[i] & FLAG_SURFACE)
+                               ? curvature_global(i, sorted, flags, inv_cell, bin_keys, bin_mask, range, gradient, R)
+                               : 0.0f;
+            }
+            continue;
         }
-#undef ACCUMULATE
-        kappa[i] = kap;
+        gather_more(bin - 1, bin + 1, gradient, range, cand_gradient, bin_first, bin_slot);
+        for (uint first = lid * 8; first < own.y; first += lsize * 8) {
+            float px[8], py[8], pz[8], nx[8], ny[8], nz[8];
+            uint ids[8];
+            for (int l = 0; l < 8; ++l) {  // spare lanes repeat the last particle
+                const uint i = own.x + min(first + l, own.y - 1);
+                const float4 x = sorted[i];
+                const float3 n = outward_normal(gradient[i]);
+                px[l] = x.x; py[l] = x.y; pz[l] = x.z; nx[l] = n.x; ny[l] = n.y; nz[l] = n.z; ids[l] = i;
+            }
+            const float8 X = vload8(0, px), Y = vload8(0, py), Z = vload8(0, pz);
+            const float8 NX = vload8(0, nx), NY = vload8(0, ny), NZ = vload8(0, nz);
+            const uint8 I = vload8(0, ids);
+            float8 kap = 0.0f;
+            for (uint j = 0; j < n_cand; ++j) {
+                const float4 pj = cand[j];
+                const uint nbr = as_uint(pj.w);
+                if ((flags[nbr] & FLAG_SURFACE) == 0) continue;  // the same for every lane
+                const float3 nj = outward_normal(cand_gradient[j]);
+                const float8 dx = X - pj.x, dy = Y - pj.y, dz = Z - pj.z;
+                const float8 d = sqrt(dx * dx + dy * dy + dz * dz);
+                const int8 in = (d < R) & (I != (uint8)nbr);
+                const float8 term = (1.0f - (NX * nj.x + NY * nj.y + NZ * nj.z)) * (1.0f - d / R);
+                kap += select((float8)(0.0f), term, in);
+            }
+            float out[8];
+            vstore8(kap, 0, out);
+            for (uint l = 0; l < 8 && first + l < own.y; ++l) {
+                const uint i = own.x + first + l;
+                kappa[i] = (flags[i] & FLAG_SURFACE) ? out[l] : 0.0f;
+            }
+        }
     }
-  }
 }
 
 // Paper eq. 3: sums and counts of kappa over the surface particles inside each coarse cell, and

@@ -107,3 +107,17 @@ inline uint gather_candidates(int3 blo, int3 bhi, __global const float4* sorted,
     barrier(CLK_LOCAL_MEM_FENCE);
     return n;
 }
+
+// After gather_candidates: copies a second per-particle array (same bins, same order) into `dst`.
+inline void gather_more(int3 blo, int3 bhi, __global const float4* src, __global const uint2* range,
+                        __local float4* dst, __local const uint* bin_first, __local const uint* bin_slot) {
+    const uint lid = get_local_id(0), lsize = get_local_size(0);
+    const int3 bn = bhi - blo + 1;
+    const int nbins = bn.x * bn.y * bn.z;
+    for (int b = 0; b < nbins; ++b) {
+        if ((int)bin_slot[b] < 0) continue;
+        uint2 rg = range[bin_slot[b]];
+        for (uint k = lid; k < rg.y; k += lsize) dst[bin_first[b] + k] = src[rg.x + k];
+    }
+    barrier(CLK_LOCAL_MEM_FENCE);
+}

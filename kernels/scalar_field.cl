@@ -76,62 +76,89 @@ __kernel void scalar_field(__global const uint* pending, uint count, __global co
 }
 
 // Candidate particles of one coarse cell gathered into local memory (paper Fig. 3: the particles
-// that influence the cell's points lie within R of the cell box). The list keeps the bins in
-// z, y, x order and each bin in index order, so for every point the neighbours appear in the same
-// order as in the per-point loop above: a point gets bit-identical values whichever cell (or
-// kernel) evaluates it, and a point shared by several cells is evaluated once, by the work-item
-// that claims it first (its NaN "pending" value becomes CLAIMED).
+// that influence the cell's points lie within R of the cell box). A point shared by several cells
+// is evaluated once, by the work-group that claims it first (its NaN "pending" value becomes
+// CLAIMED). Each work-item then evaluates LANES claimed points at once, one per vector lane: every
+// lane adds its neighbours in candidate order (bins in z, y, x order, each in index order), so a
+// point's value does not depend on its lane or its partners. A cell whose candidates do not fit
+// claims nothing and raises `overflow`; the host then evaluates what is left with the per-point
+// kernel above, so which kernel evaluates a point depends only on the cells, never on timing.
 #define PENDING_BITS 0x7fc00000u
 #define CLAIMED_BITS 0x7fc00001u
-__kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, __global const ulong* keys, ulong mask,
+#define LANES 8
+#define MAX_CELL_POINTS 729  /* (8 + 1)^3: uniform cell r/2 */
+
+__kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, int every_point,
+                                 __global const ulong* keys, ulong mask,
                                  volatile __global uint* value_bits, float step, __global const float4* sorted,
                                  float inv_cell, __global const ulong* bin_keys, ulong bin_mask,
-                                 __global const uint2* range, float r, float R, __local float4* cand,
-                                 __local uint* bin_first, __local uint* bin_slot, __local uint* count) {
+                                 __global const uint2* range, float r, float R, volatile __global int* overflow,
+                                 __local float4* cand, __local uint* bin_first, __local uint* bin_slot,
+                                 __local uint* count, __local uint* claimed, __local uint* claimed_count) {
     const int4 c = cells[get_group_id(0)];
     const uint lid = get_local_id(0), lsize = get_local_size(0);
     const float3 lo = convert_float3(c.xyz * coarse_steps) * step - R;
     const float3 hi = convert_float3(c.xyz * coarse_steps + coarse_steps) * step + R;
     const uint n_cand = gather_candidates(convert_int3_rtn(lo * inv_cell), convert_int3_rtn(hi * inv_cell), sorted,
                                           bin_keys, bin_mask, range, cand, bin_first, bin_slot, count);
-    const int local_list = n_cand <= MAX_CANDIDATES;
-
     const int side = coarse_steps + 1;
     const int points = side * side * side;
-    const float R2 = R * R, inv_R2 = 1.0f / R2;
-    for (int l = (int)lid; l < points; l += (int)lsize) {
+    if (n_cand > MAX_CANDIDATES || points > MAX_CELL_POINTS) {
+        if (lid == 0) atomic_or(overflow, 1);
+        return;
+    }
+    if (lid == 0) *claimed_count = 0;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    for (int l = (int)lid; l < points; l += (int)lsize) {  // claim the cell's pending points
         int3 o = (int3)(l % side, (l / side) % side, l / (side * side));
-        if (c.w == 2 && ((o.x | o.y | o.z) & 1)) continue;
-        int3 p = c.xyz * coarse_steps + o;
-        long slot = hash_find(keys, mask, pack_key(p));
+        if (!every_point && c.w == 2 && ((o.x | o.y | o.z) & 1)) continue;
+        long slot = hash_find(keys, mask, pack_key(c.xyz * coarse_steps + o));
         if (slot < 0) continue;
         if (atomic_cmpxchg(&value_bits[slot], PENDING_BITS, CLAIMED_BITS) != PENDING_BITS) continue;
-        float4 x = (float4)(convert_float3(p) * step, 0.0f);
-        float K = 0.0f;
-        float3 S = (float3)(0.0f), G = (float3)(0.0f);
-        float3 A0 = (float3)(0.0f), A1 = (float3)(0.0f), A2 = (float3)(0.0f);
-#define ACCUMULATE(pj)                                        \
-        {                                                     \
-            float3 y = (pj).xyz - x.xyz;                      \
-            float d2 = dot(y, y);                             \
-            if (d2 < R2) {                                    \
-                float q = 1.0f - d2 * inv_R2;                 \
-                float k = q * q * q;                          \
-                float3 gk = (6.0f * q * q * inv_R2) * y;      \
-                K += k;                                       \
-                S += k * y;                                   \
-                G += gk;                                      \
-                A0 += y.x * gk;                               \
-                A1 += y.y * gk;                               \
-                A2 += y.z * gk;                               \
-            }                                                 \
+        claimed[atomic_inc(claimed_count)] = (uint)slot;
+    }
+    barrier(CLK_LOCAL_MEM_FENCE);
+    const uint n_claimed = *claimed_count;
+    const float R2 = R * R, inv_R2 = 1.0f / R2;
+    for (uint first = lid * LANES; first < n_claimed; first += lsize * LANES) {
+        float px[LANES], py[LANES], pz[LANES];
+        for (int l = 0; l < LANES; ++l) {  // spare lanes repeat the last point
+            float3 x = convert_float3(unpack_key(keys[claimed[min(first + l, n_claimed - 1)]])) * step;
+            px[l] = x.x; py[l] = x.y; pz[l] = x.z;
         }
-        if (local_list) {
-            for (uint j = 0; j < n_cand; ++j) ACCUMULATE(cand[j])
-        } else {
-            FOR_EACH_NEIGHBOUR_BIN(x, inv_cell, bin_keys, bin_mask, range, sorted, ACCUMULATE(pj))
+        const float8 X = vload8(0, px), Y = vload8(0, py), Z = vload8(0, pz);
+        float8 K = 0.0f, Sx = 0.0f, Sy = 0.0f, Sz = 0.0f, Gx = 0.0f, Gy = 0.0f, Gz = 0.0f;
+        float8 Axx = 0.0f, Axy = 0.0f, Axz = 0.0f, Ayx = 0.0f, Ayy = 0.0f, Ayz = 0.0f, Azx = 0.0f, Azy = 0.0f,
+               Azz = 0.0f;
+        for (uint j = 0; j < n_cand; ++j) {
+            const float4 pj = cand[j];
+            const float8 yx = pj.x - X, yy = pj.y - Y, yz = pj.z - Z;
+            const float8 d2 = yx * yx + yy * yy + yz * yz;
+            const int8 in = d2 < R2;
+            const float8 q = select((float8)(0.0f), 1.0f - d2 * inv_R2, in);  // 0 outside R: adds nothing
+            const float8 k = q * q * q;
+            const float8 g = (6.0f * inv_R2) * q * q;
+            const float8 gx = g * yx, gy = g * yy, gz = g * yz;
+            K += k;
+            Sx += k * yx; Sy += k * yy; Sz += k * yz;
+            Gx += gx; Gy += gy; Gz += gz;
+            Axx += yx * gx; Axy += yx * gy; Axz += yx * gz;
+            Ayx += yy * gx; Ayy += yy * gy; Ayz += yy * gz;
+            Azx += yz * gx; Azy += yz * gy; Azz += yz * gz;
         }
-#undef ACCUMULATE
-        value_bits[slot] = as_uint(solenthaler_phi(x, K, S, G, A0, A1, A2, r, R));
+        float k_[LANES], sx[LANES], sy[LANES], sz[LANES], gx_[LANES], gy_[LANES], gz_[LANES];
+        float a[9][LANES];
+        vstore8(K, 0, k_); vstore8(Sx, 0, sx); vstore8(Sy, 0, sy); vstore8(Sz, 0, sz);
+        vstore8(Gx, 0, gx_); vstore8(Gy, 0, gy_); vstore8(Gz, 0, gz_);
+        vstore8(Axx, 0, a[0]); vstore8(Axy, 0, a[1]); vstore8(Axz, 0, a[2]);
+        vstore8(Ayx, 0, a[3]); vstore8(Ayy, 0, a[4]); vstore8(Ayz, 0, a[5]);
+        vstore8(Azx, 0, a[6]); vstore8(Azy, 0, a[7]); vstore8(Azz, 0, a[8]);
+        for (int l = 0; l < LANES && first + l < n_claimed; ++l) {
+            const float3 G = (float3)(gx_[l], gy_[l], gz_[l]);
+            const float phi = solenthaler_phi((float4)(0.0f), k_[l], (float3)(sx[l], sy[l], sz[l]), G,
+                                              (float3)(a[0][l], a[1][l], a[2][l]), (float3)(a[3][l], a[4][l], a[5][l]),
+                                              (float3)(a[6][l], a[7][l], a[8][l]), r, R);
+            value_bits[claimed[first + l]] = as_uint(phi);
+        }
     }
 }

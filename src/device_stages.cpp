@@ -56,7 +56,7 @@ DeviceHash insert_growing(OpenCLRuntime& rt, std::size_t capacity, const char* w
 }
 
 // Work-group sizes: a bin holds about (R / 2r)^3 = 8 particles, a level-3 cell 125 points.
-constexpr std::size_t kBinGroup = 32, kCellGroup = 128;
+constexpr std::size_t kBinGroup = 8, kCellGroup = 16;  // a work-item takes 8 particles or points at once
 constexpr std::size_t kBinsPerGroup = 16;  // bins one work-group takes in turn
 
 /// The four __local arguments of gather_candidates (particle_binning.cl), from argument `first`.
@@ -153,6 +153,7 @@ void cell_curvature_levels(OpenCLRuntime& rt, const BinnedParticles& b, const Pa
     set_args(rt.kernel("particle_curvature"), b.sorted, c.flags, b.occupied, cl_uint(b.occupied_count),
              cl_uint(kBinsPerGroup), 1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.mask()), b.range, c.gradient, R, kappa);
     set_candidate_args(rt.kernel("particle_curvature"), 12);
+    rt.kernel("particle_curvature").setArg(16, cl::Local(2048 * sizeof(cl_float4)));  // candidates' gradients
     rt.run_groups("particle_curvature", (b.occupied_count + kBinsPerGroup - 1) / kBinsPerGroup, kBinGroup);
     cl::Buffer sum = rt.buffer(cap * sizeof(cl_ulong), "cell curvature sums");
     cl::Buffer cnt = rt.buffer(cap * sizeof(cl_uint), "cell curvature counts");
@@ -241,13 +242,38 @@ void grow_fine_points(OpenCLRuntime& rt, FinePoints& p, std::size_t capacity) {
 
 }  // namespace
 
+/// Cells as int4 (x, y, z, level) on the device.
+cl::Buffer cell_buffer(OpenCLRuntime& rt, const std::vector<CoarseCell>& cells) {
+    std::vector<cl_int4> data;
+    for (const auto& c : cells) data.push_back({{c.coord.x, c.coord.y, c.coord.z, c.level}});
+    cl::Buffer buf = rt.buffer(data.size() * sizeof(cl_int4), "cell list");
+    rt.queue().enqueueWriteBuffer(buf, CL_TRUE, 0, data.size() * sizeof(cl_int4), data.data());
+    return buf;
+}
+
+/// Stage 6 over the pending points of `cell_count` cells, one work-group per cell with candidates
+/// gathered in local memory; cells whose candidates do not fit leave their points to the per-point
+/// kernel. `every_point`: claim every lattice point of the cell, not only those of its level.
+void evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf, std::size_t cell_count,
+                    bool every_point, const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
+    cl::Buffer overflow = rt.buffer(sizeof(cl_int), "scalar field overflow flag");
+    rt.queue().enqueueFillBuffer(overflow, cl_int{0}, 0, sizeof(cl_int));
+    constexpr std::size_t kMaxCellPoints = 729;  // as in scalar_field.cl
+    auto& k = rt.kernel("scalar_field_cells");
+    set_args(k, cell_buf, cl_int(frame.coarse_steps), cl_int(every_point), p.hash.keys, cl_ulong(p.hash.mask()),
+             p.values, frame.step, b.sorted, 1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.mask()), b.range, r, R,
+             overflow);
+    set_candidate_args(k, 15);
+    k.setArg(19, cl::Local(kMaxCellPoints * sizeof(cl_uint)));
+    k.setArg(20, cl::Local(sizeof(cl_uint)));
+    rt.run_groups("scalar_field_cells", cell_count, kCellGroup);
+    if (read_buffer<cl_int>(rt, overflow, 1)[0]) evaluate_pending(rt, p, frame, b, r, R);
+}
+
 void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<CoarseCell>& cells,
                          const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
     if (cells.empty()) return;
-    std::vector<cl_int4> cell_data;
-    for (const auto& c : cells) cell_data.push_back({{c.coord.x, c.coord.y, c.coord.z, c.level}});
-    cl::Buffer cell_buf = rt.buffer(cell_data.size() * sizeof(cl_int4), "refinement cells");
-    rt.queue().enqueueWriteBuffer(cell_buf, CL_FALSE, 0, cell_data.size() * sizeof(cl_int4), cell_data.data());
+    const cl::Buffer cell_buf = cell_buffer(rt, cells);
     const std::size_t side = std::size_t(frame.coarse_steps + 1);
     const std::size_t work = cells.size() * side * side * side;
     if (work > std::numeric_limits<cl_uint>::max()) throw Error("too many fine points in one refinement pass");
@@ -263,12 +289,7 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<Coa
         if (!needs_growth(c, p.hash)) break;
         grow_fine_points(rt, p, std::max(p.hash.capacity * 2, next_pow2(c.inserted * 2 + 1)));
     }
-    // Stage 6, one work-group per cell over candidates gathered in local memory.
-    set_args(rt.kernel("scalar_field_cells"), cell_buf, cl_int(frame.coarse_steps), p.hash.keys,
-             cl_ulong(p.hash.mask()), p.values, frame.step, b.sorted, 1.0f / b.cell, b.bins.keys,
-             cl_ulong(b.bins.mask()), b.range, r, R);
-    set_candidate_args(rt.kernel("scalar_field_cells"), 13);
-    rt.run_groups("scalar_field_cells", cells.size(), kCellGroup);
+    evaluate_cells(rt, p, cell_buf, cells.size(), false, frame, b, r, R);
     rt.finish();
 }
 
@@ -288,7 +309,8 @@ void evaluate_pending(OpenCLRuntime& rt, FinePoints& p, const LatticeFrame& fram
 }
 
 std::vector<float> insert_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<std::uint64_t>& keys,
-                                       const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
+                                       const std::vector<CoarseCell>& holders, const LatticeFrame& frame,
+                                       const BinnedParticles& b, float r, float R) {
     if (keys.empty()) return {};
     const cl_uint n = cl_uint(keys.size());
     cl::Buffer in = rt.buffer(n * sizeof(cl_ulong), "extra fine points");
@@ -303,7 +325,7 @@ std::vector<float> insert_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const s
         if (!needs_growth(c, p.hash)) break;
         grow_fine_points(rt, p, std::max(p.hash.capacity * 2, next_pow2(c.inserted * 2 + 1)));
     }
-    evaluate_pending(rt, p, frame, b, r, R);
+    evaluate_cells(rt, p, cell_buffer(rt, holders), holders.size(), true, frame, b, r, R);
     cl::Buffer out = rt.buffer(n * sizeof(cl_float), "extra fine point values");
     set_args(rt.kernel("gather_values"), slots, n, p.values, out);
     rt.run("gather_values", n);

@@ -68,9 +68,11 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vecto
 void evaluate_pending(OpenCLRuntime& rt, FinePoints& points, const LatticeFrame& frame, const BinnedParticles& bins,
                       float r, float R);
 /// Inserts the given lattice point keys (growing the table as needed), evaluates the new ones and
-/// returns the values of all of them, in order.
+/// returns the values of all of them, in order. Every key must be a lattice point of a cell of
+/// `holders` (the cells whose work-groups evaluate them).
 std::vector<float> insert_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vector<std::uint64_t>& keys,
-                         const LatticeFrame& frame, const BinnedParticles& bins, float r, float R);
+                                       const std::vector<CoarseCell>& holders, const LatticeFrame& frame,
+                                       const BinnedParticles& bins, float r, float R);
 /// Copies the table to the host.
 FinePointMap read_fine_points(OpenCLRuntime& rt, const FinePoints& points);
 

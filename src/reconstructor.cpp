@@ -2,6 +2,7 @@
 // triangulation and crack closing on the host. Each stage is timed on its own.
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cmath>
 #include <limits>
 #include <unordered_map>
@@ -194,11 +195,11 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     s.time_ms.emplace_back("scalar_field", t_field);
     s.time_ms.emplace_back("band_closure", t_closure);
     timer.restart();  // the loop recorded its own two entries
-    if (auto mids = level2_crossing_midpoints(cells, g.frame, field); !mids.empty()) {
+    if (Level2Midpoints mids = level2_crossing_midpoints(cells, g.frame, field); !mids.keys.empty()) {
         // Continuity never touches these points (no level-3 cell holds them): add them as they are.
-        std::vector<float> values = insert_and_evaluate(rt, points, mids, g.frame, bins, r, R);
-        field.reserve_more(mids.size());
-        for (std::size_t i = 0; i < mids.size(); ++i) field.insert(mids[i], values[i]);
+        std::vector<float> values = insert_and_evaluate(rt, points, mids.keys, mids.holders, g.frame, bins, r, R);
+        field.reserve_more(mids.keys.size());
+        for (std::size_t i = 0; i < mids.keys.size(); ++i) field.insert(mids.keys[i], values[i]);
     }
     timer.stage("edge_refinement");
     s.surface_cells = cells.size();

@@ -241,7 +241,7 @@ TEST_CASE("level-2 sphere with true values at crossed edge midpoints (edge refin
     SphereSetup s = sphere_setup(12.0, 4, 2);
     const Mesh plain = triangulate_cells(s.cells, s.frame, s.field);
     const glm::dvec3 centre = s.centre;
-    for (std::uint64_t key : level2_crossing_midpoints(s.cells, s.frame, s.field))
+    for (std::uint64_t key : level2_crossing_midpoints(s.cells, s.frame, s.field).keys)
         s.field.insert(key, float(glm::length(glm::dvec3(lattice::unpack(key)) - centre) - s.radius));
     const Mesh refined = triangulate_cells(s.cells, s.frame, s.field);
     CHECK(is_closed_and_oriented(refined));
