@@ -20,6 +20,14 @@ inline float3 outward_normal(float4 gradient) {
     return length(gradient.xyz) > 0.0f ? -normalize(gradient.xyz) : (float3)(0.0f);
 }
 
+// Outward unit normal (xyz) and surface flag (w: 1 or 0) per sorted particle, so the curvature loop
+// reads one float4 per neighbour instead of normalising its gradient.
+__kernel void particle_normals(__global const float4* gradient, __global const uchar* flags, uint n,
+                               __global float4* normals) {
+    uint i = get_global_id(0);
+    if (i < n) normals[i] = (float4)(outward_normal(gradient[i]), (flags[i] & FLAG_SURFACE) ? 1.0f : 0.0f);
+}
+
 // Paper eq. 1-2 for surface particle i over the 27 bins around it in global memory (bins whose
 // candidates do not fit in local memory).
 inline float curvature_global(uint i, __global const float4* sorted, __global const uchar* flags, float inv_cell,
@@ -44,9 +52,9 @@ inline float curvature_global(uint i, __global const float4* sorted, __global co
 __kernel void particle_curvature(__global const float4* sorted, __global const uchar* flags,
                                  __global const uint* occupied, uint occupied_count, uint per_group, float inv_cell,
                                  __global const ulong* bin_keys, ulong bin_mask, __global const uint2* range,
-                                 __global const float4* gradient, float R, __global float* kappa,
-                                 __local float4* cand, __local uint* bin_first, __local uint* bin_slot,
-                                 __local uint* count, __local float4* cand_gradient) {
+                                 __global const float4* gradient, __global const float4* normals, float R,
+                                 __global float* kappa, __local float4* cand, __local uint* bin_first,
+                                 __local uint* bin_slot, __local uint* count, __local float4* cand_normal) {
     const uint lid = get_local_id(0), lsize = get_local_size(0);
     const uint first_bin = get_group_id(0) * per_group;
     for (uint ob = first_bin; ob < min(first_bin + per_group, occupied_count); ++ob) {
@@ -70,29 +78,29 @@ __kernel void particle_curvature(__global const float4* sorted, __global const u
             }
             continue;
         }
-        gather_more(bin - 1, bin + 1, gradient, range, cand_gradient, bin_first, bin_slot);
+        gather_more(bin - 1, bin + 1, normals, range, cand_normal, bin_first, bin_slot);
         for (uint first = lid * 8; first < own.y; first += lsize * 8) {
             float px[8], py[8], pz[8], nx[8], ny[8], nz[8];
             uint ids[8];
             for (int l = 0; l < 8; ++l) {  // spare lanes repeat the last particle
                 const uint i = own.x + min(first + l, own.y - 1);
                 const float4 x = sorted[i];
-                const float3 n = outward_normal(gradient[i]);
+                const float4 n = normals[i];
                 px[l] = x.x; py[l] = x.y; pz[l] = x.z; nx[l] = n.x; ny[l] = n.y; nz[l] = n.z; ids[l] = i;
             }
             const float8 X = vload8(0, px), Y = vload8(0, py), Z = vload8(0, pz);
             const float8 NX = vload8(0, nx), NY = vload8(0, ny), NZ = vload8(0, nz);
             const uint8 I = vload8(0, ids);
             float8 kap = 0.0f;
+            const float inv_R = 1.0f / R;
             for (uint j = 0; j < n_cand; ++j) {
+                const float4 nj = cand_normal[j];
+                if (nj.w == 0.0f) continue;  // not a surface particle: the same for every lane
                 const float4 pj = cand[j];
-                const uint nbr = as_uint(pj.w);
-                if ((flags[nbr] & FLAG_SURFACE) == 0) continue;  // the same for every lane
-                const float3 nj = outward_normal(cand_gradient[j]);
                 const float8 dx = X - pj.x, dy = Y - pj.y, dz = Z - pj.z;
                 const float8 d = sqrt(dx * dx + dy * dy + dz * dz);
-                const int8 in = (d < R) & (I != (uint8)nbr);
-                const float8 term = (1.0f - (NX * nj.x + NY * nj.y + NZ * nj.z)) * (1.0f - d / R);
+                const int8 in = (d < R) & (I != (uint8)as_uint(pj.w));
+                const float8 term = (1.0f - (NX * nj.x + NY * nj.y + NZ * nj.z)) * (1.0f - d * inv_R);
                 kap += select((float8)(0.0f), term, in);
             }
             float out[8];

@@ -150,10 +150,14 @@ void cell_curvature_levels(OpenCLRuntime& rt, const BinnedParticles& b, const Pa
     const cl_uint n = cl_uint(b.count);
     const std::size_t cap = cells.capacity;
     kappa = rt.buffer(n * sizeof(cl_float), "particle curvature");
+    cl::Buffer normals = rt.buffer(n * sizeof(cl_float4), "particle normals");
+    set_args(rt.kernel("particle_normals"), c.gradient, c.flags, n, normals);
+    rt.run("particle_normals", n);
     set_args(rt.kernel("particle_curvature"), b.sorted, c.flags, b.occupied, cl_uint(b.occupied_count),
-             cl_uint(kBinsPerGroup), 1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.mask()), b.range, c.gradient, R, kappa);
-    set_candidate_args(rt.kernel("particle_curvature"), 12);
-    rt.kernel("particle_curvature").setArg(16, cl::Local(2048 * sizeof(cl_float4)));  // candidates' gradients
+             cl_uint(kBinsPerGroup), 1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.mask()), b.range, c.gradient, normals,
+             R, kappa);
+    set_candidate_args(rt.kernel("particle_curvature"), 13);
+    rt.kernel("particle_curvature").setArg(17, cl::Local(2048 * sizeof(cl_float4)));  // candidates' normals
     rt.run_groups("particle_curvature", (b.occupied_count + kBinsPerGroup - 1) / kBinsPerGroup, kBinGroup);
     cl::Buffer sum = rt.buffer(cap * sizeof(cl_ulong), "cell curvature sums");
     cl::Buffer cnt = rt.buffer(cap * sizeof(cl_uint), "cell curvature counts");
