@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <numeric>
 
@@ -225,7 +227,9 @@ std::size_t estimate_points(const std::vector<CoarseCell>& cells, int coarse_ste
     std::size_t total = 0;
     for (const auto& c : cells) {
         std::size_t side = std::size_t(coarse_steps / stride(c.level));
-        total += side * side * side + side * side * 3 / 2;
+        // A cell owns about side^3 points (neighbours share the rest), plus some on faces without a
+        // neighbour. Underestimates only cost a rehash (the table grows at load 1/2).
+        total += side * side * side + side * side / 2;
         if (c.level == 2) total += 2 * side * side;  // refined midpoints of crossed edges (edge_refinement.hpp)
     }
     return total;

@@ -2,6 +2,7 @@
 // triangulation and crack closing on the host. Each stage is timed on its own.
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <cstdio>
 #include <cmath>
 #include <limits>
@@ -170,6 +171,8 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     timer.stage("surface_particles");
     SurfaceCells sc = surface_cells(rt, bins, classes, r, R, g.coarse_edge, threshold, g.forced_level);
     for (std::uint8_t f : sc.splash) s.splash_cells += f;
+    classes = ParticleClasses{};  // memory follows the surface from here on (DESIGN §4)
+    sc.particle_kappa = {};
     timer.stage("surface_cells");
 
     // Stages 5-8 until the band is closed (DESIGN §7): refine, evaluate, continuity, look for
@@ -181,6 +184,7 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     for (;;) {
         auto t0 = Clock::now();
         refine_and_evaluate(rt, points, fresh, g.frame, bins, r, R);
+        field = FinePointMap();  // never two host copies of the table at once
         field = read_fine_points(rt, points);
         auto t1 = Clock::now();
         apply_transition_continuity(cells, g.frame, field);
@@ -201,6 +205,8 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
         field.reserve_more(mids.keys.size());
         for (std::size_t i = 0; i < mids.keys.size(); ++i) field.insert(mids.keys[i], values[i]);
     }
+    points = FinePoints{};  // the host holds every value now
+    bins = BinnedParticles{};
     timer.stage("edge_refinement");
     s.surface_cells = cells.size();
     for (const auto& c : cells) (c.level == 2 ? s.surface_cells_level2 : s.surface_cells_level3)++;
