@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <utility>
 #include <vector>
 
@@ -13,16 +14,37 @@ namespace trilevel {
 class FinePointMap {
 public:
     FinePointMap() = default;
-    /// Wraps arrays read back from the device; `keys.size()` must be a power of two.
+    /// Takes arrays read back from the device; `keys.size()` must be a power of two.
     FinePointMap(std::vector<std::uint64_t> keys, std::vector<float> values)
-        : keys_(std::move(keys)), values_(std::move(values)), mask_(keys_.size() - 1) {}
+        : own_keys_(std::move(keys)), own_values_(std::move(values)) {
+        bind_own();
+    }
     /// An empty table with room for `capacity` keys (rounded up to a power of two).
     explicit FinePointMap(std::size_t capacity) {
         std::size_t c = 16;
         while (c < capacity) c *= 2;
-        keys_.assign(c, lattice::kEmptyKey);
-        values_.assign(c, 0.0f);
-        mask_ = c - 1;
+        own_keys_.assign(c, lattice::kEmptyKey);
+        own_values_.assign(c, 0.0f);
+        bind_own();
+    }
+    /// A view of arrays held elsewhere (a mapped device buffer: no host copy on CPU devices);
+    /// valid while they are. Copies of a view are views of the same arrays.
+    static FinePointMap view(std::uint64_t* keys, float* values, std::size_t capacity) {
+        FinePointMap m;
+        m.bind(keys, values, capacity, false);
+        return m;
+    }
+
+    FinePointMap(const FinePointMap& o) : own_keys_(o.own_keys_), own_values_(o.own_values_) { rebind(o); }
+    FinePointMap(FinePointMap&& o) noexcept
+        : own_keys_(std::move(o.own_keys_)), own_values_(std::move(o.own_values_)) {
+        rebind(o);
+    }
+    FinePointMap& operator=(FinePointMap o) noexcept {
+        own_keys_ = std::move(o.own_keys_);
+        own_values_ = std::move(o.own_values_);
+        rebind(o);
+        return *this;
     }
 
     const float* find(std::uint64_t key) const {
@@ -44,26 +66,44 @@ public:
         return values_[s];
     }
 
-    /// Makes room for `extra` more keys at load factor <= 0.5, rehashing into a larger table if needed.
+    /// Makes room for `extra` more keys at load factor <= 0.5, rehashing into a larger (owned)
+    /// table if needed.
     void reserve_more(std::size_t extra) {
         std::size_t used = 0;
-        for (std::uint64_t k : keys_) used += k != lattice::kEmptyKey;
-        if (2 * (used + extra) <= keys_.size()) return;
+        for (std::uint64_t k : keys()) used += k != lattice::kEmptyKey;
+        if (2 * (used + extra) <= capacity_) return;
         FinePointMap bigger(2 * (used + extra));
-        for (std::size_t s = 0; s < keys_.size(); ++s)
+        for (std::size_t s = 0; s < capacity_; ++s)
             if (keys_[s] != lattice::kEmptyKey) bigger.insert(keys_[s], values_[s]);
         *this = std::move(bigger);
     }
 
-    std::size_t capacity() const { return keys_.size(); }
-    const std::vector<std::uint64_t>& keys() const { return keys_; }
-    std::vector<float>& values() { return values_; }
-    const std::vector<float>& values() const { return values_; }
+    std::size_t capacity() const { return capacity_; }
+    std::span<const std::uint64_t> keys() const { return {keys_, capacity_}; }
+    std::span<float> values() { return {values_, capacity_}; }
+    std::span<const float> values() const { return {values_, capacity_}; }
 
 private:
-    std::vector<std::uint64_t> keys_;
-    std::vector<float> values_;
+    std::vector<std::uint64_t> own_keys_;  // empty for a view
+    std::vector<float> own_values_;
+    std::uint64_t* keys_ = nullptr;
+    float* values_ = nullptr;
+    std::size_t capacity_ = 0;
     std::uint64_t mask_ = 0;
+    bool owning_ = true;
+
+    void bind(std::uint64_t* k, float* v, std::size_t capacity, bool owning) {
+        keys_ = k;
+        values_ = v;
+        capacity_ = capacity;
+        mask_ = capacity ? capacity - 1 : 0;
+        owning_ = owning;
+    }
+    void bind_own() { bind(own_keys_.data(), own_values_.data(), own_keys_.size(), true); }
+    void rebind(const FinePointMap& o) {
+        if (o.owning_) bind_own();
+        else bind(o.keys_, o.values_, o.capacity_, false);
+    }
 };
 
 }  // namespace trilevel

@@ -24,10 +24,11 @@ void set_args(cl::Kernel& k, const Args&... args) {
     (k.setArg(i++, args), ...);
 }
 
-DeviceHash make_hash(OpenCLRuntime& rt, std::size_t capacity, const char* what) {
+DeviceHash make_hash(OpenCLRuntime& rt, std::size_t capacity, const char* what,
+                     cl_mem_flags flags = CL_MEM_READ_WRITE) {
     DeviceHash h;
     h.capacity = next_pow2(capacity);
-    h.keys = rt.buffer(h.capacity * sizeof(cl_ulong), what);
+    h.keys = rt.buffer(h.capacity * sizeof(cl_ulong), what, flags);
     h.stats = rt.buffer(2 * sizeof(cl_int), what);
     rt.queue().enqueueFillBuffer(h.keys, ~cl_ulong{0}, 0, h.capacity * sizeof(cl_ulong));
     rt.queue().enqueueFillBuffer(h.stats, cl_int{0}, 0, 2 * sizeof(cl_int));
@@ -236,8 +237,10 @@ std::size_t estimate_points(const std::vector<CoarseCell>& cells, int coarse_ste
 }
 
 void grow_fine_points(OpenCLRuntime& rt, FinePoints& p, std::size_t capacity) {
-    DeviceHash h = make_hash(rt, capacity, "fine point hash");
-    cl::Buffer values = rt.buffer(h.capacity * sizeof(cl_float), "fine point values");
+    // Host-accessible, so that mapping the table for the host stages costs no copy on CPU devices.
+    constexpr cl_mem_flags kShared = CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR;
+    DeviceHash h = make_hash(rt, capacity, "fine point hash", kShared);
+    cl::Buffer values = rt.buffer(h.capacity * sizeof(cl_float), "fine point values", kShared);
     rt.queue().enqueueFillBuffer(values, std::numeric_limits<float>::quiet_NaN(), 0, h.capacity * sizeof(cl_float));
     if (p.hash.capacity) {
         set_args(rt.kernel("hash_rehash"), p.hash.keys, p.values, cl_ulong(p.hash.capacity), h.keys, values,
@@ -338,6 +341,24 @@ std::vector<float> insert_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const s
     set_args(rt.kernel("gather_values"), slots, n, p.values, out);
     rt.run("gather_values", n);
     return read_buffer<float>(rt, out, n);
+}
+
+FinePointMap map_fine_points(OpenCLRuntime& rt, FinePoints& p) {
+    rt.finish();
+    const std::size_t cap = p.hash.capacity;
+    p.mapped_keys = static_cast<std::uint64_t*>(
+        rt.queue().enqueueMapBuffer(p.hash.keys, CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0, cap * sizeof(cl_ulong)));
+    p.mapped_values = static_cast<float*>(
+        rt.queue().enqueueMapBuffer(p.values, CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0, cap * sizeof(cl_float)));
+    return FinePointMap::view(p.mapped_keys, p.mapped_values, cap);
+}
+
+void unmap_fine_points(OpenCLRuntime& rt, FinePoints& p) {
+    if (p.mapped_keys) rt.queue().enqueueUnmapMemObject(p.hash.keys, p.mapped_keys);
+    if (p.mapped_values) rt.queue().enqueueUnmapMemObject(p.values, p.mapped_values);
+    p.mapped_keys = nullptr;
+    p.mapped_values = nullptr;
+    rt.queue().finish();
 }
 
 FinePointMap read_fine_points(OpenCLRuntime& rt, const FinePoints& p) {

@@ -60,6 +60,8 @@ struct FinePoints {
     DeviceHash hash;
     cl::Buffer values;  ///< float per slot; NaN until evaluated
     std::size_t inserted = 0;
+    std::uint64_t* mapped_keys = nullptr;  ///< while mapped for the host (map_fine_points)
+    float* mapped_values = nullptr;
 };
 /// Inserts the points of `cells` (growing the table as needed), then evaluates the new ones.
 void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vector<CoarseCell>& cells,
@@ -73,6 +75,11 @@ void evaluate_pending(OpenCLRuntime& rt, FinePoints& points, const LatticeFrame&
 std::vector<float> insert_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vector<std::uint64_t>& keys,
                                        const std::vector<CoarseCell>& holders, const LatticeFrame& frame,
                                        const BinnedParticles& bins, float r, float R);
+/// Maps the table for the host and returns a view of it: no copy on CPU devices (the buffers are
+/// allocated host-accessible). Host writes (transition continuity) land in the table. Call
+/// unmap_fine_points before the next device stage touches `points`.
+FinePointMap map_fine_points(OpenCLRuntime& rt, FinePoints& points);
+void unmap_fine_points(OpenCLRuntime& rt, FinePoints& points);
 /// Copies the table to the host.
 FinePointMap read_fine_points(OpenCLRuntime& rt, const FinePoints& points);
 

@@ -179,7 +179,7 @@ std::map<std::string, double> OpenCLRuntime::take_kernel_times() {
     return std::exchange(kernel_ms_, {});
 }
 
-cl::Buffer OpenCLRuntime::buffer(std::size_t bytes, const char* what) {
+cl::Buffer OpenCLRuntime::buffer(std::size_t bytes, const char* what, cl_mem_flags flags) {
     bytes = std::max<std::size_t>(bytes, 16);
     if (bytes > info_.max_allocation)
         throw Error(std::string("the ") + what + " needs " + mib(bytes) + " in one buffer, more than '" + info_.name +
@@ -191,7 +191,7 @@ cl::Buffer OpenCLRuntime::buffer(std::size_t bytes, const char* what) {
                     " (--memory-limit or the device's memory); use a larger cell or a smaller domain");
     allocated_ += bytes;
     try {
-        return cl::Buffer(context_, CL_MEM_READ_WRITE, bytes);
+        return cl::Buffer(context_, flags, bytes);
     } catch (const cl::Error& e) {
         throw Error(std::string("cannot allocate the ") + what + " (" + mib(bytes) +
                     ") on the OpenCL device: " + cl_error_name(e.err()));

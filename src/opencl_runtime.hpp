@@ -37,7 +37,7 @@ public:
     std::map<std::string, double> take_kernel_times();
 
     /// A device buffer of `bytes`, checked against the device's limits and the memory budget first.
-    cl::Buffer buffer(std::size_t bytes, const char* what);
+    cl::Buffer buffer(std::size_t bytes, const char* what, cl_mem_flags flags = CL_MEM_READ_WRITE);
 
     /// Starts a reconstruction's accounting: `limit` bytes (0: the device's global memory).
     void reset_budget(std::uint64_t limit);

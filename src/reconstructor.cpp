@@ -179,13 +179,12 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     // faces the surface leaves through, add those neighbours and repeat.
     std::vector<CoarseCell> cells = sc.cells, fresh = sc.cells;
     FinePoints points;
-    FinePointMap field;
+    FinePointMap field;  // a view of the mapped device table while the host stages run
     double t_field = 0, t_closure = 0;
     for (;;) {
         auto t0 = Clock::now();
         refine_and_evaluate(rt, points, fresh, g.frame, bins, r, R);
-        field = FinePointMap();  // never two host copies of the table at once
-        field = read_fine_points(rt, points);
+        field = map_fine_points(rt, points);
         auto t1 = Clock::now();
         apply_transition_continuity(cells, g.frame, field);
         fresh = band_closure_cells(cells, g.frame, field);
@@ -193,6 +192,8 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
         t_field += std::chrono::duration<double, std::milli>(t1 - t0).count();
         t_closure += std::chrono::duration<double, std::milli>(t2 - t1).count();
         if (fresh.empty()) break;
+        field = FinePointMap();
+        unmap_fine_points(rt, points);
         s.band_closure_cells += fresh.size();
         cells = merge_cells(cells, fresh);
     }
@@ -200,12 +201,13 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     s.time_ms.emplace_back("band_closure", t_closure);
     timer.restart();  // the loop recorded its own two entries
     if (Level2Midpoints mids = level2_crossing_midpoints(cells, g.frame, field); !mids.keys.empty()) {
-        // Continuity never touches these points (no level-3 cell holds them): add them as they are.
-        std::vector<float> values = insert_and_evaluate(rt, points, mids.keys, mids.holders, g.frame, bins, r, R);
-        field.reserve_more(mids.keys.size());
-        for (std::size_t i = 0; i < mids.keys.size(); ++i) field.insert(mids.keys[i], values[i]);
+        // Continuity never touches these points (no level-3 cell holds them); the values it wrote
+        // stay in the table (a rehash copies them).
+        field = FinePointMap();
+        unmap_fine_points(rt, points);
+        insert_and_evaluate(rt, points, mids.keys, mids.holders, g.frame, bins, r, R);
+        field = map_fine_points(rt, points);
     }
-    points = FinePoints{};  // the host holds every value now
     bins = BinnedParticles{};
     timer.stage("edge_refinement");
     s.surface_cells = cells.size();
@@ -213,6 +215,9 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     count_points(field, s);
 
     Mesh mesh = triangulate_cells(cells, g.frame, field);
+    field = FinePointMap();
+    unmap_fine_points(rt, points);
+    points = FinePoints{};
     timer.stage("triangulation");
     count_mesh(mesh, s);
     s.closed = is_closed_and_oriented(mesh);
