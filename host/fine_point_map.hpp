@@ -66,18 +66,6 @@ public:
         return values_[s];
     }
 
-    /// Makes room for `extra` more keys at load factor <= 0.5, rehashing into a larger (owned)
-    /// table if needed.
-    void reserve_more(std::size_t extra) {
-        std::size_t used = 0;
-        for (std::uint64_t k : keys()) used += k != lattice::kEmptyKey;
-        if (2 * (used + extra) <= capacity_) return;
-        FinePointMap bigger(2 * (used + extra));
-        for (std::size_t s = 0; s < capacity_; ++s)
-            if (keys_[s] != lattice::kEmptyKey) bigger.insert(keys_[s], values_[s]);
-        *this = std::move(bigger);
-    }
-
     std::size_t capacity() const { return capacity_; }
     std::span<const std::uint64_t> keys() const { return {keys_, capacity_}; }
     std::span<float> values() { return {values_, capacity_}; }

@@ -25,9 +25,3 @@ __kernel void collect_pending(__global const ulong* keys, __global const float* 
     if (s >= capacity) return;
     if (keys[s] != EMPTY_KEY && isnan(values[s])) pending[atomic_inc(count)] = (uint)s;
 }
-
-// Values of given slots, for reading back a few points without copying the table.
-__kernel void gather_values(__global const long* slots, uint n, __global const float* values, __global float* out) {
-    uint i = get_global_id(0);
-    if (i < n) out[i] = values[slots[i]];
-}

@@ -319,10 +319,10 @@ void evaluate_pending(OpenCLRuntime& rt, FinePoints& p, const LatticeFrame& fram
     rt.finish();
 }
 
-std::vector<float> insert_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<std::uint64_t>& keys,
-                                       const std::vector<CoarseCell>& holders, const LatticeFrame& frame,
-                                       const BinnedParticles& b, float r, float R) {
-    if (keys.empty()) return {};
+void insert_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<std::uint64_t>& keys,
+                         const std::vector<CoarseCell>& holders, const LatticeFrame& frame, const BinnedParticles& b,
+                         float r, float R) {
+    if (keys.empty()) return;
     const cl_uint n = cl_uint(keys.size());
     cl::Buffer in = rt.buffer(n * sizeof(cl_ulong), "extra fine points");
     cl::Buffer slots = rt.buffer(n * sizeof(cl_long), "extra fine point slots");
@@ -337,10 +337,6 @@ std::vector<float> insert_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const s
         grow_fine_points(rt, p, std::max(p.hash.capacity * 2, next_pow2(c.inserted * 2 + 1)));
     }
     evaluate_cells(rt, p, cell_buffer(rt, holders), holders.size(), true, frame, b, r, R);
-    cl::Buffer out = rt.buffer(n * sizeof(cl_float), "extra fine point values");
-    set_args(rt.kernel("gather_values"), slots, n, p.values, out);
-    rt.run("gather_values", n);
-    return read_buffer<float>(rt, out, n);
 }
 
 FinePointMap map_fine_points(OpenCLRuntime& rt, FinePoints& p) {

@@ -69,12 +69,12 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vecto
 /// Evaluates every point inserted but not evaluated yet.
 void evaluate_pending(OpenCLRuntime& rt, FinePoints& points, const LatticeFrame& frame, const BinnedParticles& bins,
                       float r, float R);
-/// Inserts the given lattice point keys (growing the table as needed), evaluates the new ones and
-/// returns the values of all of them, in order. Every key must be a lattice point of a cell of
-/// `holders` (the cells whose work-groups evaluate them).
-std::vector<float> insert_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vector<std::uint64_t>& keys,
-                                       const std::vector<CoarseCell>& holders, const LatticeFrame& frame,
-                                       const BinnedParticles& bins, float r, float R);
+/// Inserts the given lattice point keys (growing the table as needed) and evaluates the new ones.
+/// Every key must be a lattice point of a cell of `holders` (the cells whose work-groups evaluate
+/// them).
+void insert_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vector<std::uint64_t>& keys,
+                         const std::vector<CoarseCell>& holders, const LatticeFrame& frame,
+                         const BinnedParticles& bins, float r, float R);
 /// Maps the table for the host and returns a view of it: no copy on CPU devices (the buffers are
 /// allocated host-accessible). Host writes (transition continuity) land in the table. Call
 /// unmap_fine_points before the next device stage touches `points`.
