@@ -146,3 +146,42 @@ TEST_CASE("bad input to the library is a clear error", "[e2e][errors]") {
     const float far[6] = {0, 0, 0, 1e6f, 0, 0};
     REQUIRE_THROWS_WITH(rec.reconstruct(far, 2, params(0.025f, Mode::Adaptive)), Catch::Contains("lattice"));
 }
+
+TEST_CASE("levels end to end: a 6r droplet is level 3, a resting pool level 2, isolated particles level 3", "[e2e][levels]") {
+    const float r = 0.025f;
+    auto& rec = shared_reconstructor();
+    // A ball of radius 6r on the 2r lattice (DESIGN §3.2: curvature ~0.5-1 there, a flat face < 0.01).
+    std::vector<float> ball;
+    for (int k = -3; k <= 3; ++k)
+        for (int j = -3; j <= 3; ++j)
+            for (int i = -3; i <= 3; ++i)
+                if (i * i + j * j + k * k <= 9)
+                    for (float c : {float(i), float(j), float(k)}) ball.push_back(2 * r * c + 0.3f * r);
+    Params p = params(r, Mode::Adaptive);
+    p.curvature_threshold = 0.5f;
+    Stats st;
+    Mesh m = rec.reconstruct(ball.data(), ball.size() / 3, p, &st);
+    require_closed(m, "6r ball");
+    CHECK(st.surface_cells_level2 == 0);
+    CHECK(st.triangles_level2 == 0);
+    CHECK(st.triangles_patch == 0);
+
+    // The generated pool-and-drop: its flat pool is level 2 at the same threshold, while the drop,
+    // the jet and the splash particles make level-3 cells, and crack patches close the seams.
+    ParticleSet pd = generate_scene("pool-and-drop", r, 1);
+    m = rec.reconstruct(pd.positions.data(), pd.size(), p, &st);
+    require_closed(m, "pool-and-drop at threshold 0.5");
+    CHECK(st.surface_cells_level2 > 2 * st.surface_cells_level3);
+    CHECK(st.surface_cells_level3 > 0);
+    CHECK(st.splash_cells > 0);
+    CHECK(st.triangles_patch > 0);
+    CHECK(st.triangles_level2 + st.triangles_level3 + st.triangles_patch == st.triangles);
+
+    // Isolated particles are splash particles: level 3 at the default threshold.
+    const float two[6] = {0, 0, 0, 40 * r, 0, 0};
+    m = rec.reconstruct(two, 2, params(r, Mode::Adaptive), &st);
+    require_closed(m, "two isolated particles");
+    CHECK(st.splash_particles == 2);
+    CHECK(st.surface_cells_level2 == 0);
+    CHECK(st.surface_cells_level3 > 0);
+}
