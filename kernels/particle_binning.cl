@@ -77,7 +77,8 @@ __kernel void bin_gather(__global const uint* order, uint n, __global const floa
 // the same order as in FOR_EACH_NEIGHBOUR_BIN, so both paths give bit-identical sums. Returns
 // the count, or MAX_CANDIDATES + 1 when they do not fit (the caller then loops over global memory).
 // All work-items of the group must call it.
-#define MAX_CANDIDATES 2048
+// MAX_CANDIDATES comes from the host (OpenCLRuntime::max_candidates): as many as two float4 lists
+// of them fit the device's local memory, at most 2048.
 #define MAX_BINS 64
 inline uint gather_candidates(int3 blo, int3 bhi, __global const float4* sorted, __global const ulong* bin_keys,
                               ulong bin_mask, __global const uint2* range, __local float4* cand,

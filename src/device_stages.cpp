@@ -63,9 +63,9 @@ constexpr std::size_t kBinGroup = 8, kCellGroup = 16;  // a work-item takes 8 pa
 constexpr std::size_t kBinsPerGroup = 16;  // bins one work-group takes in turn
 
 /// The four __local arguments of gather_candidates (particle_binning.cl), from argument `first`.
-void set_candidate_args(cl::Kernel& k, cl_uint first) {
-    constexpr std::size_t kMaxCandidates = 2048, kMaxBins = 64;  // as in particle_binning.cl
-    k.setArg(first, cl::Local(kMaxCandidates * sizeof(cl_float4)));
+void set_candidate_args(OpenCLRuntime& rt, cl::Kernel& k, cl_uint first) {
+    constexpr std::size_t kMaxBins = 64;  // as in particle_binning.cl
+    k.setArg(first, cl::Local(rt.max_candidates() * sizeof(cl_float4)));
     k.setArg(first + 1, cl::Local(kMaxBins * sizeof(cl_uint)));
     k.setArg(first + 2, cl::Local(kMaxBins * sizeof(cl_uint)));
     k.setArg(first + 3, cl::Local(sizeof(cl_uint)));
@@ -135,7 +135,7 @@ ParticleClasses classify_particles(OpenCLRuntime& rt, const BinnedParticles& b, 
     const float volume = std::pow(2.0f * r, 3.0f);
     set_args(rt.kernel("color_field"), b.sorted, b.occupied, cl_uint(b.occupied_count), cl_uint(kBinsPerGroup),
              1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.mask()), b.range, R, volume, c.gradient, c.flags);
-    set_candidate_args(rt.kernel("color_field"), 12);
+    set_candidate_args(rt, rt.kernel("color_field"), 12);
     rt.run_groups("color_field", (b.occupied_count + kBinsPerGroup - 1) / kBinsPerGroup, kBinGroup);
     for (cl_uchar f : read_buffer<cl_uchar>(rt, c.flags, n)) {
         c.surface += (f & 1) ? 1 : 0;
@@ -159,8 +159,8 @@ void cell_curvature_levels(OpenCLRuntime& rt, const BinnedParticles& b, const Pa
     set_args(rt.kernel("particle_curvature"), b.sorted, c.flags, b.occupied, cl_uint(b.occupied_count),
              cl_uint(kBinsPerGroup), 1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.mask()), b.range, c.gradient, normals,
              R, kappa);
-    set_candidate_args(rt.kernel("particle_curvature"), 13);
-    rt.kernel("particle_curvature").setArg(17, cl::Local(2048 * sizeof(cl_float4)));  // candidates' normals
+    set_candidate_args(rt, rt.kernel("particle_curvature"), 13);
+    rt.kernel("particle_curvature").setArg(17, cl::Local(rt.max_candidates() * sizeof(cl_float4)));  // normals
     rt.run_groups("particle_curvature", (b.occupied_count + kBinsPerGroup - 1) / kBinsPerGroup, kBinGroup);
     cl::Buffer sum = rt.buffer(cap * sizeof(cl_ulong), "cell curvature sums");
     cl::Buffer cnt = rt.buffer(cap * sizeof(cl_uint), "cell curvature counts");
@@ -274,7 +274,7 @@ void evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf
     set_args(k, cell_buf, cl_int(frame.coarse_steps), cl_int(every_point), p.hash.keys, cl_ulong(p.hash.mask()),
              p.values, frame.step, b.sorted, 1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.mask()), b.range, r, R,
              overflow);
-    set_candidate_args(k, 15);
+    set_candidate_args(rt, k, 15);
     k.setArg(19, cl::Local(kMaxCellPoints * sizeof(cl_uint)));
     k.setArg(20, cl::Local(sizeof(cl_uint)));
     rt.run_groups("scalar_field_cells", cell_count, kCellGroup);

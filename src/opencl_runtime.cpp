@@ -1,5 +1,6 @@
 #include "opencl_runtime.hpp"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <sstream>
@@ -86,10 +87,10 @@ std::string mib(std::uint64_t bytes) {
     return buf;
 }
 
-std::string build_options() {
+std::string build_options(std::size_t max_candidates) {
     std::ostringstream o;
     o.precision(9);
-    o << "-cl-std=CL1.2 -DSURFACE_GRADIENT=" << constants::kSurfaceGradient << "f"
+    o << "-cl-std=CL1.2 -DMAX_CANDIDATES=" << max_candidates << " -DSURFACE_GRADIENT=" << constants::kSurfaceGradient << "f"
       << " -DSPLASH_NEIGHBOURS=" << constants::kSplashNeighbours
       << " -DTHIN_NEIGHBOURS=" << constants::kThinNeighbours << " -DEV_LOW=" << constants::kEvLow << "f"
       << " -DEV_HIGH=" << constants::kEvHigh << "f";
@@ -121,6 +122,11 @@ OpenCLRuntime::OpenCLRuntime(int device) {
         throw Error("cannot open OpenCL device '" + info_.name + "': " + e.what() + " " + cl_error_name(e.err()));
     }
     if (const char* env = std::getenv("TRILEVEL_WORK_GROUP"); env && *env) work_group_ = std::strtoul(env, nullptr, 10);
+    // Two float4 lists plus the bin tables and the scalar field's claimed-point list (4 KiB).
+    const std::uint64_t local = device_.getInfo<CL_DEVICE_LOCAL_MEM_SIZE>();
+    max_candidates_ = std::size_t(std::min<std::uint64_t>(2048, local > 8192 ? (local - 8192) / 32 : 64));
+    if (const char* env = std::getenv("TRILEVEL_MAX_CANDIDATES"); env && *env)  // tests: force the fallbacks
+        max_candidates_ = std::min<std::size_t>(max_candidates_, std::max(1ul, std::strtoul(env, nullptr, 10)));
     build_program();
 }
 
@@ -129,7 +135,7 @@ void OpenCLRuntime::build_program() {
     for (const char* f : kKernelFiles) source += std::string(embedded_kernel_source(f)) + "\n";
     program_ = cl::Program(context_, source);
     try {
-        program_.build(std::vector<cl::Device>{device_}, build_options().c_str());
+        program_.build(std::vector<cl::Device>{device_}, build_options(max_candidates_).c_str());
     } catch (const cl::Error&) {
         std::string log = program_.getBuildInfo<CL_PROGRAM_BUILD_LOG>(device_);
         for (char& c : log)

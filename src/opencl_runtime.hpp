@@ -23,6 +23,10 @@ public:
     cl::CommandQueue& queue() { return queue_; }
     cl::Kernel& kernel(const std::string& name);
 
+    /// Candidate particles a work-group gathers into local memory (MAX_CANDIDATES in the kernels):
+    /// two float4 lists of them fit the device's local memory (48 KiB on many GPUs), at most 2048.
+    std::size_t max_candidates() const { return max_candidates_; }
+
     /// Work-group size for 1-D launches; 0 lets the driver choose (TRILEVEL_WORK_GROUP overrides).
     std::size_t work_group_size() const { return work_group_; }
     void set_work_group_size(std::size_t w) { work_group_ = w; }
@@ -56,6 +60,7 @@ private:
     std::vector<std::pair<std::string, cl::Event>> events_;
     std::map<std::string, double> kernel_ms_;
     std::size_t work_group_ = 0;
+    std::size_t max_candidates_ = 2048;
     std::uint64_t budget_ = 0, allocated_ = 0;
 };
 

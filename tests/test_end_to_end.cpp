@@ -185,3 +185,23 @@ TEST_CASE("levels end to end: a 6r droplet is level 3, a resting pool level 2, i
     CHECK(st.surface_cells_level2 == 0);
     CHECK(st.surface_cells_level3 > 0);
 }
+
+TEST_CASE("work-groups whose candidates do not fit local memory fall back to global loops", "[e2e][fallback]") {
+    // With room for 16 candidates every bin and cell overflows: colour field, curvature and scalar
+    // field all take their global-memory paths (small-local-memory GPUs hit them on dense data).
+    const float r = 0.025f;
+    ParticleSet s = generate_scene("pool-and-drop", r, 1);
+    Stats normal, fallback;
+    Mesh a = shared_reconstructor().reconstruct(s.positions.data(), s.size(), params(r, Mode::Adaptive), &normal);
+    ::setenv("TRILEVEL_MAX_CANDIDATES", "16", 1);
+    Reconstructor small;
+    ::unsetenv("TRILEVEL_MAX_CANDIDATES");
+    Mesh b = small.reconstruct(s.positions.data(), s.size(), params(r, Mode::Adaptive), &fallback);
+    Mesh c = small.reconstruct(s.positions.data(), s.size(), params(r, Mode::Adaptive));
+    require_closed(b, "fallback paths");
+    REQUIRE(same_mesh(b, c));  // deterministic on the fallback paths too
+    CHECK(fallback.surface_particles == normal.surface_particles);
+    CHECK(fallback.surface_cells == normal.surface_cells);
+    CHECK(fallback.fine_points == normal.fine_points);
+    CHECK(double(fallback.triangles) == Approx(double(normal.triangles)).epsilon(0.01));
+}
