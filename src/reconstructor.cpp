@@ -140,6 +140,49 @@ void count_mesh(const Mesh& m, Stats& s) {
     }
 }
 
+/// Stages 5-8 until the band is closed (DESIGN §7): refine and evaluate the new cells, apply
+/// transition continuity, find the faces the surface leaves through, add those neighbours and
+/// repeat. Returns a view of the mapped fine-point table; `cells` gains the added cells.
+FinePointMap close_band(OpenCLRuntime& rt, FinePoints& points, std::vector<CoarseCell>& cells,
+                        const LatticeFrame& frame, const BinnedParticles& bins, float r, float R, Stats& s) {
+    std::vector<CoarseCell> fresh = cells;
+    double t_field = 0, t_closure = 0;
+    for (;;) {
+        auto t0 = Clock::now();
+        refine_and_evaluate(rt, points, fresh, frame, bins, r, R);
+        FinePointMap field = map_fine_points(rt, points);
+        auto t1 = Clock::now();
+        apply_transition_continuity(cells, frame, field);
+        fresh = band_closure_cells(cells, frame, field);
+        auto t2 = Clock::now();
+        t_field += std::chrono::duration<double, std::milli>(t1 - t0).count();
+        t_closure += std::chrono::duration<double, std::milli>(t2 - t1).count();
+        if (fresh.empty()) {
+            s.time_ms.emplace_back("scalar_field", t_field);
+            s.time_ms.emplace_back("band_closure", t_closure);
+            return field;
+        }
+        field = FinePointMap();
+        unmap_fine_points(rt, points);
+        s.band_closure_cells += fresh.size();
+        cells = merge_cells(cells, fresh);
+    }
+}
+
+/// Stage 8b (host/edge_refinement.hpp): true values at the midpoints of crossed level-2 edges.
+/// Continuity never touches these points (no level-3 cell holds them), and the values it wrote
+/// stay in the table (a rehash copies them). `field` is re-mapped.
+void refine_level2_edges(OpenCLRuntime& rt, FinePoints& points, FinePointMap& field,
+                         const std::vector<CoarseCell>& cells, const LatticeFrame& frame, const BinnedParticles& bins,
+                         float r, float R) {
+    Level2Midpoints mids = level2_crossing_midpoints(cells, frame, field);
+    if (mids.keys.empty()) return;
+    field = FinePointMap();
+    unmap_fine_points(rt, points);
+    insert_and_evaluate(rt, points, mids.keys, mids.holders, frame, bins, r, R);
+    field = map_fine_points(rt, points);
+}
+
 std::uint64_t peak_rss_bytes() {
     rusage u{};
     getrusage(RUSAGE_SELF, &u);
@@ -175,39 +218,11 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     sc.particle_kappa = {};
     timer.stage("surface_cells");
 
-    // Stages 5-8 until the band is closed (DESIGN §7): refine, evaluate, continuity, look for
-    // faces the surface leaves through, add those neighbours and repeat.
-    std::vector<CoarseCell> cells = sc.cells, fresh = sc.cells;
+    std::vector<CoarseCell> cells = sc.cells;
     FinePoints points;
-    FinePointMap field;  // a view of the mapped device table while the host stages run
-    double t_field = 0, t_closure = 0;
-    for (;;) {
-        auto t0 = Clock::now();
-        refine_and_evaluate(rt, points, fresh, g.frame, bins, r, R);
-        field = map_fine_points(rt, points);
-        auto t1 = Clock::now();
-        apply_transition_continuity(cells, g.frame, field);
-        fresh = band_closure_cells(cells, g.frame, field);
-        auto t2 = Clock::now();
-        t_field += std::chrono::duration<double, std::milli>(t1 - t0).count();
-        t_closure += std::chrono::duration<double, std::milli>(t2 - t1).count();
-        if (fresh.empty()) break;
-        field = FinePointMap();
-        unmap_fine_points(rt, points);
-        s.band_closure_cells += fresh.size();
-        cells = merge_cells(cells, fresh);
-    }
-    s.time_ms.emplace_back("scalar_field", t_field);
-    s.time_ms.emplace_back("band_closure", t_closure);
-    timer.restart();  // the loop recorded its own two entries
-    if (Level2Midpoints mids = level2_crossing_midpoints(cells, g.frame, field); !mids.keys.empty()) {
-        // Continuity never touches these points (no level-3 cell holds them); the values it wrote
-        // stay in the table (a rehash copies them).
-        field = FinePointMap();
-        unmap_fine_points(rt, points);
-        insert_and_evaluate(rt, points, mids.keys, mids.holders, g.frame, bins, r, R);
-        field = map_fine_points(rt, points);
-    }
+    FinePointMap field = close_band(rt, points, cells, g.frame, bins, r, R, s);
+    timer.restart();  // close_band recorded its own two entries
+    refine_level2_edges(rt, points, field, cells, g.frame, bins, r, R);
     bins = BinnedParticles{};
     timer.stage("edge_refinement");
     s.surface_cells = cells.size();
