@@ -163,17 +163,24 @@ struct CellKappa {
     float max = 0.0f;
 };
 
-/// Eq. 3 per cell holding surface particles; the largest kappa of the 26 neighbours otherwise.
-float cell_curvature(glm::ivec3 c, const std::unordered_map<std::uint64_t, CellKappa>& per_cell) {
-    if (auto it = per_cell.find(lattice::pack(c)); it != per_cell.end()) return float(it->second.sum / it->second.count);
-    float best = 0.0f;
+/// Calls f(value) for every entry of `map` keyed by a cell of the 3x3x3 block around `c`, in z, y, x
+/// order (the order of FOR_EACH_CELL_IN_BLOCK in kernels/curvature.cl).
+template <class Map, class F>
+void for_each_in_block(glm::ivec3 c, const Map& map, F&& f) {
     for (int dz = -1; dz <= 1; ++dz)
         for (int dy = -1; dy <= 1; ++dy)
             for (int dx = -1; dx <= 1; ++dx) {
                 const glm::ivec3 q = c + glm::ivec3(dx, dy, dz);
                 if (!lattice::in_range(q)) continue;
-                if (auto it = per_cell.find(lattice::pack(q)); it != per_cell.end()) best = std::max(best, it->second.max);
+                if (auto it = map.find(lattice::pack(q)); it != map.end()) f(it->second);
             }
+}
+
+/// Eq. 3 per cell holding surface particles; the largest kappa of the 26 neighbours otherwise.
+float cell_curvature(glm::ivec3 c, const std::unordered_map<std::uint64_t, CellKappa>& per_cell) {
+    if (auto it = per_cell.find(lattice::pack(c)); it != per_cell.end()) return float(it->second.sum / it->second.count);
+    float best = 0.0f;
+    for_each_in_block(c, per_cell, [&](const CellKappa& k) { best = std::max(best, k.max); });
     return best;
 }
 
@@ -211,13 +218,7 @@ SurfaceCells surface_cells(const std::vector<glm::vec3>& x, const ParticleFlags&
         // Mean over the surface cells of the 3x3x3 block (kernels/curvature.cl, cell_levels).
         double sum = 0.0;
         int n = 0;
-        for (int dz = -1; dz <= 1; ++dz)
-            for (int dy = -1; dy <= 1; ++dy)
-                for (int dx = -1; dx <= 1; ++dx) {
-                    const glm::ivec3 q = coord + glm::ivec3(dx, dy, dz);
-                    if (!lattice::in_range(q)) continue;
-                    if (auto it = raw.find(lattice::pack(q)); it != raw.end()) sum += it->second, ++n;
-                }
+        for_each_in_block(coord, raw, [&](float k) { sum += k, ++n; });
         out.curvature[c] = float(sum / n);
         out.splash[c] = splash_keys.count(keys[c]) != 0;
         const bool fine = out.splash[c] || out.curvature[c] >= threshold;
