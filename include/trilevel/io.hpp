@@ -9,15 +9,32 @@
 
 namespace trilevel {
 
+/// A per-particle quantity read alongside the positions (velocity, density, ...).
+struct ParticleAttribute {
+    std::string name;           ///< as named in the file
+    int components = 1;         ///< 1 (scalar) or 3 (vector)
+    std::vector<float> values;  ///< `components` floats per particle, in particle order
+};
+
 /// Particle positions read from a file, x, y, z per particle, in file order.
 struct ParticleSet {
     std::vector<float> positions;
+    std::vector<ParticleAttribute> attributes;  ///< only those asked for in ReadOptions::attributes
+    std::size_t dropped_invalid = 0;            ///< particles dropped by ReadOptions::drop_invalid
     std::size_t size() const { return positions.size() / 3; }
+};
+
+struct ReadOptions {
+    /// Attributes to read as well (VTK, VTU, BGEO); a name the file lacks is an Error.
+    std::vector<std::string> attributes;
+    /// Drop particles with a NaN/Inf coordinate (counted in ParticleSet::dropped_invalid)
+    /// instead of failing.
+    bool drop_invalid = false;
 };
 
 /// Reads particles by extension: .vtk (legacy, ASCII/BINARY), .vtu, .bgeo (gzip'd or not), .ply, .xyz
 /// (little-endian float32 triplets). Throws Error naming the file and what is wrong.
-ParticleSet read_particles(const std::string& path);
+ParticleSet read_particles(const std::string& path, const ReadOptions& options = {});
 
 /// Writes particles by extension: .xyz, .ply (binary), .vtk (legacy binary). Atomic (temp + rename).
 void write_particles(const std::string& path, const ParticleSet& particles);

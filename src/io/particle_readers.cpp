@@ -13,7 +13,8 @@ std::vector<float> read_xyz_points(const std::string& path, const std::string& d
 }
 }  // namespace io
 
-ParticleSet read_particles(const std::string& path) {
+ParticleSet read_particles(const std::string& path, const ReadOptions& options) {
+    (void)options;  // attributes and drop_invalid: see issue 5/6 work in progress
     using namespace io;
     require_file(path);  // a missing file is reported as such, whatever its name
     const std::string ext = extension_of(path);
