@@ -228,6 +228,27 @@ class CliAgreementTest(unittest.TestCase):
             self.run_both(frame, tmp, "--mode", "uniform", "--cell", "2", mode="uniform", cell=2.0)
 
 
+class ReadmeTest(unittest.TestCase):
+    def test_the_readme_python_snippet_runs(self):
+        """README.md, section "Python": its code block runs as written and does what it says."""
+        readme = os.path.join(os.path.dirname(__file__), "..", "..", "README.md")
+        with open(readme) as f:
+            section = f.read().split("\n## Python\n", 1)[1].split("\n## ", 1)[0]
+        code = section.split("```python\n", 1)[1].split("```", 1)[0]
+        with tempfile.TemporaryDirectory() as tmp:
+            cwd = os.getcwd()
+            os.chdir(tmp)
+            try:
+                scope = {}
+                exec(compile(code, "README.md", "exec"), scope)
+            finally:
+                os.chdir(cwd)
+            v, t = trilevel.read_mesh(os.path.join(tmp, "surface.ply"))
+        assert_closed(self, v, t)
+        self.assertEqual(scope["stats"]["parameters"]["mode"], "uniform")
+        self.assertIn("# %d triangles, closed: True" % len(t), code)  # the output the README shows
+
+
 class DevicesTest(unittest.TestCase):
     def test_devices_are_listed(self):
         devices = trilevel.devices()
