@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <exception>
 #include <random>
+#include <string>
 #include <vector>
 
 #include <trilevel/trilevel.hpp>
@@ -19,24 +20,24 @@ constexpr float kSpacing = 2.0f * kRadius;  // rest spacing of the particles
 
 struct Fluid {
     std::vector<float> xyz;        // x, y, z per particle: what the simulator integrates
-    std::vector<float> vz;         // vertical velocity per particle
+    std::vector<float> vy;         // vertical velocity per particle (y is up)
     std::vector<bool> in_drop;     // the drop moves, the pool rests
 };
 
-/// A pool of 24 x 24 x 4 particles and a ball of radius 5 spacings above it, slightly jittered.
+/// A pool of 24 x 4 x 24 particles and a ball of radius 5 spacings above it, slightly jittered.
 Fluid make_scene() {
     Fluid f;
     std::mt19937 rng(7);
     std::uniform_real_distribution<float> jitter(-0.05f * kSpacing, 0.05f * kSpacing);
     auto add = [&](float x, float y, float z, bool drop) {
         f.xyz.insert(f.xyz.end(), {x + jitter(rng), y + jitter(rng), z + jitter(rng)});
-        f.vz.push_back(0.0f);
+        f.vy.push_back(0.0f);
         f.in_drop.push_back(drop);
     };
     for (int i = 0; i < 24; ++i)
         for (int j = 0; j < 24; ++j)
-            for (int k = 0; k < 4; ++k) add(i * kSpacing, j * kSpacing, k * kSpacing, false);
-    const float cx = 11.5f * kSpacing, cy = 11.5f * kSpacing, cz = 20.0f * kSpacing;
+            for (int k = 0; k < 4; ++k) add(i * kSpacing, k * kSpacing, j * kSpacing, false);
+    const float cx = 11.5f * kSpacing, cy = 20.0f * kSpacing, cz = 11.5f * kSpacing;
     for (int i = -5; i <= 5; ++i)
         for (int j = -5; j <= 5; ++j)
             for (int k = -5; k <= 5; ++k)
@@ -46,17 +47,18 @@ Fluid make_scene() {
 
 /// One explicit Euler step of free fall for the drop particles.
 void step(Fluid& f, float dt) {
-    for (std::size_t i = 0; i < f.vz.size(); ++i) {
+    for (std::size_t i = 0; i < f.vy.size(); ++i) {
         if (!f.in_drop[i]) continue;
-        f.vz[i] -= 9.81f * dt;
-        f.xyz[3 * i + 2] += f.vz[i] * dt;
+        f.vy[i] -= 9.81f * dt;
+        f.xyz[3 * i + 1] += f.vy[i] * dt;
     }
 }
 
-float max_z(const std::vector<float>& xyz) {
-    float top = xyz[2];
-    for (std::size_t i = 2; i < xyz.size(); i += 3) top = std::max(top, xyz[i]);
-    return top;
+/// The largest y of x, y, z triplets.
+float top(const std::vector<float>& xyz) {
+    float y = xyz[1];
+    for (std::size_t i = 1; i < xyz.size(); i += 3) y = std::max(y, xyz[i]);
+    return y;
 }
 
 }  // namespace
@@ -67,19 +69,20 @@ int main() {
         trilevel::Reconstructor rec;  // device chosen once: TRILEVEL_DEVICE, else first GPU, else CPU
         trilevel::Params params;
         params.particle_radius = kRadius;  // every other length parameter keeps its default (in r)
-        std::printf("device: %s, %zu particles\n", rec.device().name.c_str(), fluid.vz.size());
+        std::printf("device: %s, %zu particles\n", rec.device().name.c_str(), fluid.vy.size());
 
         bool ok = true;
         for (int s = 0; s < 5; ++s) {
             trilevel::Stats stats;
-            const trilevel::Mesh mesh = rec.reconstruct(fluid.xyz.data(), fluid.vz.size(), params, &stats);
+            const trilevel::Mesh mesh = rec.reconstruct(fluid.xyz.data(), fluid.vy.size(), params, &stats);
+            if (mesh.triangle_count() == 0) throw trilevel::Error("step " + std::to_string(s) + ": empty mesh");
             // The mesh must move with the drop: its top stays within one radius of the topmost particle.
-            const float lift = max_z(mesh.positions) - max_z(fluid.xyz);
+            const float lift = top(mesh.positions) - top(fluid.xyz);
             const bool tracks = std::abs(lift) < kRadius;
             std::printf("step %d: %zu vertices, %zu triangles (level 3: %zu), closed: %s, top - drop top: %.2f r\n", s,
                         mesh.vertex_count(), mesh.triangle_count(), stats.triangles_level3,
                         stats.closed ? "yes" : "no", lift / kRadius);
-            ok = ok && mesh.triangle_count() > 0 && trilevel::is_closed_and_oriented(mesh) && tracks;
+            ok = ok && trilevel::is_closed_and_oriented(mesh) && tracks;
             step(fluid, 0.04f);
         }
         return ok ? 0 : 1;
