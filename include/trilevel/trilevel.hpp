@@ -37,6 +37,11 @@ struct Params {
     float curvature_threshold = 0.0f;  ///< adaptive mode: mean cell curvature (paper eq. 3) at which a
                                        ///< coarse cell becomes level 3; <= 0 picks the calibrated default
     std::uint64_t memory_limit_bytes = 0;  ///< budget for the largest allocations; 0: device and host limits
+    float level_hysteresis = 0.2f;     ///< adaptive mode, frame sequences: a coarse cell keeps its level of the
+                                       ///< previous frame until its curvature passes the threshold by this
+                                       ///< fraction of the threshold (level 3 stays 3 down to threshold (1 - h),
+                                       ///< level 2 stays 2 up to threshold (1 + h)); in [0, 1), 0 = off.
+                                       ///< No effect on the first frame (Reconstructor::reset_history).
 };
 
 /// Calibrated default of Params::curvature_threshold (see README, "Choosing the threshold").
@@ -79,6 +84,13 @@ struct Stats {
     std::uint64_t peak_memory_bytes = 0;   ///< process peak resident memory after the run
     std::uint64_t device_memory_bytes = 0; ///< device buffers allocated during the run (an upper bound)
     bool closed = false;                   ///< every edge used twice in opposite directions
+    /// Temporal coherence (adaptive mode, every frame after the first of a sequence): coarse cells
+    /// this frame shares with the previous one, how many of those changed level, and how many
+    /// cells Params::level_hysteresis held at their previous level.
+    bool level_history = false;            ///< a previous frame was compared (the three below are set)
+    std::size_t level_cells_compared = 0;
+    std::size_t level_flips = 0;
+    std::size_t level_held = 0;
     std::string device;                    ///< the OpenCL device that ran the kernels
 };
 
@@ -111,7 +123,14 @@ public:
     Reconstructor& operator=(Reconstructor&&) noexcept;
 
     /// `xyz` holds `count` particles as x, y, z floats. Throws Error on bad input or resources.
+    /// Successive calls are taken as successive frames of one sequence: in adaptive mode the levels
+    /// of each frame are remembered for the next (Params::level_hysteresis, Stats::level_flips).
     Mesh reconstruct(const float* xyz, std::size_t count, const Params& params, Stats* stats = nullptr);
+
+    /// Forgets the previous frame's levels: call before the first frame of a new sequence (or
+    /// between unrelated inputs) so that it is reconstructed as if alone. A change of radius,
+    /// kernel radius, mode or cell resets the history too.
+    void reset_history();
 
     const DeviceInfo& device() const;
 
