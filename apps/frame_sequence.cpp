@@ -166,7 +166,7 @@ bool outputs_exist(const FrameJob& job) {
 }  // namespace
 
 int run_frame_sequence(const std::string& input, const std::string& output, const std::string& stats,
-                       const SequenceOptions& options, const std::function<std::string(const FrameJob&)>& work) {
+                       const SequenceOptions& options, const std::function<FrameResult(const FrameJob&)>& work) {
     if (options.start && options.end && *options.start > *options.end)
         throw UsageError("--start " + std::to_string(*options.start) + " is after --end " + std::to_string(*options.end));
     std::vector<FrameJob> jobs = select_jobs(input, output, stats, options);
@@ -176,9 +176,13 @@ int run_frame_sequence(const std::string& input, const std::string& output, cons
 
     Progress progress(jobs.size(), options);
     std::vector<std::pair<std::string, std::string>> failures;  // frame number, message
+    std::size_t flips = 0, compared = 0;
     for (const FrameJob& job : jobs) {
         try {
-            progress.frame_ok(job, work(job));
+            const FrameResult r = work(job);
+            flips += r.level_flips;
+            compared += r.level_cells_compared;
+            progress.frame_ok(job, r.line);
         } catch (const std::bad_alloc&) {
             failures.emplace_back(job.frame.number, "out of memory");
             progress.frame_failed(job, failures.back().second);
@@ -199,6 +203,9 @@ int run_frame_sequence(const std::string& input, const std::string& output, cons
         const double t = progress.elapsed();
         std::printf("%zu frames: %zu ok, %s, %zu skipped; %.1f s, %.2f frames/s\n", selected, ok, failed.c_str(), skipped,
                     t, t > 0 ? double(jobs.size()) / t : 0.0);
+        if (compared > 0)
+            std::printf("level changes between consecutive frames: %zu of %zu coarse cells (%.4f%%)\n", flips, compared,
+                        100.0 * double(flips) / double(compared));
         std::fflush(stdout);
     }
     if (failures.empty()) return 0;

@@ -5,6 +5,7 @@
 // reported while the run goes on.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <optional>
@@ -46,6 +47,13 @@ struct FrameJob {
     std::string input, output, stats;
 };
 
+/// What processing a frame gave: a one-line description ("30356 particles, 45210 triangles,
+/// 85 ms") and its level changes against the previous frame (Stats::level_flips).
+struct FrameResult {
+    std::string line;
+    std::size_t level_flips = 0, level_cells_compared = 0;
+};
+
 struct SequenceOptions {
     std::optional<std::uint64_t> start, end;  ///< inclusive range of frame numbers
     bool skip_existing = false;               ///< skip frames whose outputs all exist (resume)
@@ -53,12 +61,11 @@ struct SequenceOptions {
     bool progress_bar = false;                ///< a live bar (stderr is a terminal) instead of lines
 };
 
-/// Processes every frame of `input` (a pattern) in the range: `work` turns a job into its outputs
-/// and returns a one-line description ("30356 particles, 45210 triangles, 85 ms"); a
-/// trilevel::Error or other std::exception it throws fails that frame only. Reports progress (a
-/// bar on a terminal, else one line per frame on stdout) and a summary. Returns the exit status:
-/// 0 when no frame failed, 1 otherwise.
+/// Processes every frame of `input` (a pattern) in the range: `work` turns a job into its outputs;
+/// a std::exception it throws fails that frame only. Reports progress (a bar on a terminal, else
+/// one line per frame on stdout) and a summary with the share of coarse cells that changed level
+/// between consecutive frames. Returns the exit status: 0 when no frame failed, 1 otherwise.
 int run_frame_sequence(const std::string& input, const std::string& output, const std::string& stats,
-                       const SequenceOptions& options, const std::function<std::string(const FrameJob&)>& work);
+                       const SequenceOptions& options, const std::function<FrameResult(const FrameJob&)>& work);
 
 }  // namespace trilevel::cli

@@ -123,11 +123,11 @@ double total_ms(const trilevel::Stats& s, double wall_ms) {
     return wall_ms;
 }
 
-/// One input file -> one mesh (and stats) file. Prints the summary unless quiet or `line` is
-/// given, which receives a one-line summary instead (frame sequences).
+/// One input file -> one mesh (and stats) file. Prints the summary unless quiet or `result` is
+/// given, which receives a one-line summary and the level changes instead (frame sequences).
 void reconstruct_file(trilevel::Reconstructor& rec, const trilevel::Params& params, const ReconstructArgs& a,
                       const std::string& input, const std::string& output, const std::string& stats_path,
-                      std::string* line = nullptr) {
+                      trilevel::cli::FrameResult* result = nullptr) {
     const auto start = std::chrono::steady_clock::now();
     const trilevel::ParticleSet particles = trilevel::read_particles(input);
     if (particles.size() == 0) throw trilevel::Error(input + ": holds no particles");
@@ -143,14 +143,16 @@ void reconstruct_file(trilevel::Reconstructor& rec, const trilevel::Params& para
         out.commit();
     }
     const double wall = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    if (line) {
+    if (result) {
         char buf[160];
         std::snprintf(buf, sizeof buf, "%zu particles, %zu triangles, %s, %.0f ms", particles.size(), mesh.triangle_count(),
                       stats.closed ? "closed" : "NOT closed", total_ms(stats, wall));
-        *line = buf;
+        result->line = buf;
         if (stats.level_history)
-            *line += ", " + std::to_string(stats.level_flips) + " of " + std::to_string(stats.level_cells_compared) +
-                     " cells changed level";
+            result->line += ", " + std::to_string(stats.level_flips) + " of " + std::to_string(stats.level_cells_compared) +
+                            " cells changed level";
+        result->level_flips = stats.level_flips;
+        result->level_cells_compared = stats.level_cells_compared;
     } else if (!a.quiet)
         std::printf("particles: %zu\nsurface cells: %zu (level 2: %zu, level 3: %zu)\ntriangles: %zu\nclosed: %s\n"
                     "total time: %.1f ms\noutput: %s\n",
@@ -183,9 +185,9 @@ int run_reconstruct(const ReconstructArgs& a) {
     trilevel::Reconstructor rec(a.device);  // compiled kernels are reused across frames
     rec.reset_history();                    // the first frame's levels do not depend on anything before
     return trilevel::cli::run_frame_sequence(a.input, a.output, a.stats, options, [&](const trilevel::cli::FrameJob& job) {
-        std::string line;
-        reconstruct_file(rec, params, a, job.input, job.output, job.stats, &line);
-        return line;
+        trilevel::cli::FrameResult result;
+        reconstruct_file(rec, params, a, job.input, job.output, job.stats, &result);
+        return result;
     });
 }
 
