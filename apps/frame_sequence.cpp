@@ -92,6 +92,11 @@ class Progress {
 public:
     Progress(std::size_t total, const SequenceOptions& o) : total_(total), options_(o), start_(Clock::now()) {}
 
+    /// The bar shows the frame being worked on (frames can take seconds each).
+    void frame_started(const FrameJob& job) {
+        if (options_.progress_bar && !options_.quiet) draw(job);
+    }
+
     void frame_ok(const FrameJob& job, const std::string& line) {
         ++done_;
         if (options_.quiet) return;
@@ -105,7 +110,6 @@ public:
         clear_bar();
         std::fprintf(stderr, "trilevel: error: frame %s: %s\n", job.frame.number.c_str(), one_line(message).c_str());
         std::fflush(stderr);
-        if (options_.progress_bar && !options_.quiet) draw(job);
     }
 
     void finish() { clear_bar(); }
@@ -113,10 +117,11 @@ public:
 
 private:
     std::string rate_eta() const {
-        const double t = elapsed(), rate = t > 0 ? double(done_) / t : 0.0;
+        const double t = elapsed();
+        if (done_ == 0 || t <= 0) return "ETA ?";
+        const double rate = double(done_) / t;
         char buf[96];
-        std::snprintf(buf, sizeof buf, "%.2f frames/s, ETA %s", rate,
-                      rate > 0 ? clock_time(double(total_ - done_) / rate).c_str() : "?");
+        std::snprintf(buf, sizeof buf, "%.2f frames/s, ETA %s", rate, clock_time(double(total_ - done_) / rate).c_str());
         return buf;
     }
 
@@ -165,19 +170,28 @@ bool outputs_exist(const FrameJob& job) {
 
 }  // namespace
 
-int run_frame_sequence(const std::string& input, const std::string& output, const std::string& stats,
-                       const SequenceOptions& options, const std::function<FrameResult(const FrameJob&)>& work) {
+SequencePlan plan_frame_sequence(const std::string& input, const std::string& output, const std::string& stats,
+                                 const SequenceOptions& options) {
     if (options.start && options.end && *options.start > *options.end)
         throw UsageError("--start " + std::to_string(*options.start) + " is after --end " + std::to_string(*options.end));
-    std::vector<FrameJob> jobs = select_jobs(input, output, stats, options);
-    const std::size_t selected = jobs.size();
-    if (options.skip_existing) jobs.erase(std::remove_if(jobs.begin(), jobs.end(), outputs_exist), jobs.end());
-    const std::size_t skipped = selected - jobs.size();
+    SequencePlan plan;
+    plan.jobs = select_jobs(input, output, stats, options);
+    plan.selected = plan.jobs.size();
+    if (options.skip_existing)
+        plan.jobs.erase(std::remove_if(plan.jobs.begin(), plan.jobs.end(), outputs_exist), plan.jobs.end());
+    plan.skipped = plan.selected - plan.jobs.size();
+    return plan;
+}
 
+int run_frame_sequence(const SequencePlan& plan, const SequenceOptions& options,
+                       const std::function<FrameResult(const FrameJob&)>& work) {
+    const std::vector<FrameJob>& jobs = plan.jobs;
+    const std::size_t selected = plan.selected, skipped = plan.skipped;
     Progress progress(jobs.size(), options);
     std::vector<std::pair<std::string, std::string>> failures;  // frame number, message
     std::size_t flips = 0, compared = 0;
     for (const FrameJob& job : jobs) {
+        progress.frame_started(job);
         try {
             const FrameResult r = work(job);
             flips += r.level_flips;

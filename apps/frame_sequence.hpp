@@ -61,11 +61,23 @@ struct SequenceOptions {
     bool progress_bar = false;                ///< a live bar (stderr is a terminal) instead of lines
 };
 
-/// Processes every frame of `input` (a pattern) in the range: `work` turns a job into its outputs;
-/// a std::exception it throws fails that frame only. Reports progress (a bar on a terminal, else
-/// one line per frame on stdout) and a summary with the share of coarse cells that changed level
-/// between consecutive frames. Returns the exit status: 0 when no frame failed, 1 otherwise.
-int run_frame_sequence(const std::string& input, const std::string& output, const std::string& stats,
-                       const SequenceOptions& options, const std::function<FrameResult(const FrameJob&)>& work);
+/// The frames of a run: those of `input` (a pattern) in the range, less those skipped.
+struct SequencePlan {
+    std::vector<FrameJob> jobs;
+    std::size_t selected = 0;  ///< frames in the range
+    std::size_t skipped = 0;   ///< of those, skipped because their outputs exist
+};
+
+/// Finds the frames to process; throws (UsageError, trilevel::Error) before any work is done.
+/// `output` and `stats` are patterns too (`stats` may be empty).
+SequencePlan plan_frame_sequence(const std::string& input, const std::string& output, const std::string& stats,
+                                 const SequenceOptions& options);
+
+/// Processes the planned frames in order: `work` turns a job into its outputs; a std::exception
+/// it throws fails that frame only. Reports progress (a bar on a terminal, else one line per
+/// frame on stdout) and a summary with the share of coarse cells that changed level between
+/// consecutive frames. Returns the exit status: 0 when no frame failed, 1 otherwise.
+int run_frame_sequence(const SequencePlan& plan, const SequenceOptions& options,
+                       const std::function<FrameResult(const FrameJob&)>& work);
 
 }  // namespace trilevel::cli

@@ -182,9 +182,10 @@ int run_reconstruct(const ReconstructArgs& a) {
     options.skip_existing = a.skip_existing;
     options.quiet = a.quiet;
     options.progress_bar = ::isatty(STDERR_FILENO) != 0;
+    const auto plan = trilevel::cli::plan_frame_sequence(a.input, a.output, a.stats, options);
     trilevel::Reconstructor rec(a.device);  // compiled kernels are reused across frames
     rec.reset_history();                    // the first frame's levels do not depend on anything before
-    return trilevel::cli::run_frame_sequence(a.input, a.output, a.stats, options, [&](const trilevel::cli::FrameJob& job) {
+    return trilevel::cli::run_frame_sequence(plan, options, [&](const trilevel::cli::FrameJob& job) {
         trilevel::cli::FrameResult result;
         reconstruct_file(rec, params, a, job.input, job.output, job.stats, &result);
         return result;

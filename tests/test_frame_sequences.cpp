@@ -203,3 +203,24 @@ TEST_CASE("CLI sequences: a generated 200-frame sequence reconstructs with one c
     CHECK(r.out.find("200 frames: 3 ok, 0 failed, 197 skipped") != std::string::npos);
     for (int f : {3, 100, 150}) CHECK(closed_mesh(tmp.file("mesh_" + padded(f) + ".ply")));
 }
+
+TEST_CASE("CLI sequences: on a terminal, a progress bar with frame count, rate and ETA", "[cli][sequence]") {
+    if (std::system("script -qec true /dev/null >/dev/null 2>&1") != 0) {
+        WARN("SKIPPED: no util-linux `script` to run the CLI on a pseudo-terminal");
+        return;
+    }
+    TempDir tmp;
+    for (int f = 0; f < 3; ++f) trilevel::write_particles(tmp.file("f_" + std::to_string(f) + ".xyz"), small_block(0.01f * f));
+    // `script` gives the CLI a pseudo-terminal for stdout and stderr; its transcript is both.
+    const std::string inner = std::string("'") + TRILEVEL_CLI + "' reconstruct '" + tmp.file("f_{}.xyz") + "' -o '" +
+                              tmp.file("m_{}.ply") + "' -r 0.025";
+    const std::string cmd = "script -qec \"" + inner + "\" /dev/null >'" + tmp.file("tty.txt") + "' 2>&1";
+    REQUIRE(std::system(cmd.c_str()) == 0);
+    const std::string tty = slurp(tmp.file("tty.txt"));
+    INFO(tty);
+    CHECK(tty.find("\r[------------------------] 0/3 frames, ETA ? (frame 0)") != std::string::npos);
+    CHECK(tty.find("\r[########################] 3/3 frames, ") != std::string::npos);
+    CHECK(tty.find(" frames/s, ETA 0:00 (frame 2)") != std::string::npos);
+    CHECK(tty.find("frame 0 [") == std::string::npos);  // no plain lines on a terminal
+    CHECK(tty.find("3 frames: 3 ok, 0 failed, 0 skipped") != std::string::npos);
+}
