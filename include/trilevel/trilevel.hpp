@@ -42,6 +42,8 @@ struct Params {
                                        ///< fraction of the threshold (level 3 stays 3 down to threshold (1 - h),
                                        ///< level 2 stays 2 up to threshold (1 + h)); in [0, 1), 0 = off.
                                        ///< No effect on the first frame (Reconstructor::reset_history).
+                                       ///< 0.2 removed 71% of the level changes between frames of the
+                                       ///< generated falling-drop without adding level-3 cells (README).
 };
 
 /// Calibrated default of Params::curvature_threshold (see README, "Choosing the threshold").
