@@ -13,6 +13,7 @@
 #include "band_closure.hpp"
 #include "device_stages.hpp"
 #include "edge_refinement.hpp"
+#include "level_history.hpp"
 #include "opencl_runtime.hpp"
 #include "stage_constants.hpp"
 #include "surface_mesher.hpp"
@@ -61,6 +62,9 @@ void validate(const Params& p) {
     }
     if (p.mode == Mode::Adaptive && p.curvature_threshold != 0.0f && !(std::isfinite(p.curvature_threshold) && p.curvature_threshold > 0.0f))
         throw Error("curvature threshold must be finite and > 0, got " + std::to_string(p.curvature_threshold));
+    if (!(p.level_hysteresis >= 0.0f && p.level_hysteresis < 1.0f))
+        throw Error("level hysteresis must lie in [0, 1) (a fraction of the curvature threshold), got " +
+                    std::to_string(p.level_hysteresis));
 }
 
 /// Lattice and coarse grid of a frame. Adaptive and uniform --cell 2 use lattice step r with
@@ -68,6 +72,7 @@ void validate(const Params& p) {
 struct Grid {
     LatticeFrame frame;
     glm::dvec3 origin;  ///< double-precision lattice origin; particles are uploaded relative to it
+    CoarseBase coarse_base{};  ///< origin / coarse_edge: a whole number, so frames share one lattice
     float coarse_edge = 0.0f;
     int forced_level = 0;  ///< 0: adaptive
 };
@@ -94,7 +99,11 @@ Grid make_grid(const Params& p, const float* xyz, std::size_t n) {
     }
     const double edge = g.coarse_edge;
     // Two coarse cells of margin: the surface lies within R = one coarse cell of the particles.
-    g.origin = (glm::floor(lo / edge) - 2.0) * edge;
+    // Snapped to whole coarse cells, so every frame of a sequence uses the same global lattice
+    // (level_history.hpp).
+    const glm::dvec3 base = glm::floor(lo / edge) - 2.0;
+    g.origin = base * edge;
+    for (int a = 0; a < 3; ++a) g.coarse_base[std::size_t(a)] = std::int64_t(base[a]);
     g.frame.origin = glm::vec3(g.origin);
     glm::dvec3 extent = (hi - g.origin) / double(g.frame.step) + 3.0 * g.frame.coarse_steps;
     double worst = std::max({extent.x, extent.y, extent.z});
@@ -189,12 +198,22 @@ std::uint64_t peak_rss_bytes() {
     return std::uint64_t(u.ru_maxrss) * 1024;
 }
 
+/// Whether two parameter sets give the same lattice and the same curvature, so that the levels
+/// of one frame are comparable with those of the next.
+bool same_levels_frame(const Params& a, const Params& b) {
+    return a.particle_radius == b.particle_radius && a.kernel_radius == b.kernel_radius && a.mode == b.mode &&
+           a.cell == b.cell;
+}
+
 }  // namespace
 
 struct Reconstructor::Impl {
     explicit Impl(int device) : rt(device) {}
     OpenCLRuntime rt;
+    LevelHistory history;  ///< levels of the previous frame (adaptive mode)
+    Params history_params;
     Mesh run(const float* xyz, std::size_t n, const Params& p, Stats& s);
+    void remember_levels(const std::vector<CoarseCell>& cells, const Grid& g, const Params& p, Stats& s);
 };
 
 Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, Stats& s) {
@@ -214,6 +233,9 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     timer.stage("surface_particles");
     SurfaceCells sc = surface_cells(rt, bins, classes, r, R, g.coarse_edge, threshold, g.forced_level);
     for (std::uint8_t f : sc.splash) s.splash_cells += f;
+    if (!history.empty() && !same_levels_frame(history_params, p)) history.reset();
+    if (g.forced_level == 0)
+        s.level_held = history.apply(sc.cells, sc.curvature, sc.splash, g.coarse_base, threshold, p.level_hysteresis);
     classes = ParticleClasses{};  // memory follows the surface from here on (DESIGN §4)
     sc.particle_kappa = {};
     timer.stage("surface_cells");
@@ -236,10 +258,28 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     timer.stage("triangulation");
     count_mesh(mesh, s);
     s.closed = is_closed_and_oriented(mesh);
+    remember_levels(cells, g, p, s);
     for (auto& [name, ms] : rt.take_kernel_times()) s.kernel_ms.emplace_back(name, ms);
     s.peak_memory_bytes = peak_rss_bytes();
     s.device_memory_bytes = rt.allocated_bytes();
     return mesh;
+}
+
+/// Counts the flips against the previous frame and keeps this frame's levels (adaptive mode;
+/// uniform modes have no levels to keep coherent).
+void Reconstructor::Impl::remember_levels(const std::vector<CoarseCell>& cells, const Grid& g, const Params& p, Stats& s) {
+    if (g.forced_level != 0) {
+        history.reset();
+        return;
+    }
+    if (!history.empty()) {
+        const LevelHistory::Flips f = history.compare(cells, g.coarse_base);
+        s.level_history = true;
+        s.level_cells_compared = f.compared;
+        s.level_flips = f.changed;
+    }
+    history.record(cells, g.coarse_base);
+    history_params = p;
 }
 
 Reconstructor::Reconstructor(int device) : impl_(std::make_unique<Impl>(device)) {}
@@ -247,6 +287,7 @@ Reconstructor::~Reconstructor() = default;
 Reconstructor::Reconstructor(Reconstructor&&) noexcept = default;
 Reconstructor& Reconstructor::operator=(Reconstructor&&) noexcept = default;
 const DeviceInfo& Reconstructor::device() const { return impl_->rt.info(); }
+void Reconstructor::reset_history() { impl_->history.reset(); }
 
 Mesh Reconstructor::reconstruct(const float* xyz, std::size_t count, const Params& params, Stats* stats) {
     validate(params);

@@ -18,8 +18,11 @@ using trilevel::test::signed_volume;
 
 namespace {
 
+/// One Reconstructor for the whole suite (kernels compiled once); every use is a single frame, so
+/// no level history carries over from an earlier, unrelated reconstruction.
 Reconstructor& shared_reconstructor() {
     static Reconstructor rec;
+    rec.reset_history();
     return rec;
 }
 

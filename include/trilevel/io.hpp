@@ -59,8 +59,10 @@ Mesh read_mesh(const std::string& path);
 std::vector<std::string> scene_names();
 
 /// Generates a particle scene on a jittered lattice of spacing 2*radius (radius r in world units,
-/// > 0), deterministic for a seed (same seed, same positions): "block", "sphere", "dam-break",
-/// "pool-and-drop". Throws Error for an unknown name.
-ParticleSet generate_scene(const std::string& name, float radius, std::uint64_t seed = 1);
+/// > 0), deterministic for a seed (same seed and frame, same positions): "block", "sphere",
+/// "dam-break", "pool-and-drop" (static: `frame` is ignored) and "falling-drop", which moves
+/// smoothly with `frame` (>= 0) for frame sequences; its particle count and order are the same in
+/// every frame. Throws Error for an unknown name.
+ParticleSet generate_scene(const std::string& name, float radius, std::uint64_t seed = 1, int frame = 0);
 
 }  // namespace trilevel

@@ -39,6 +39,13 @@ struct Params {
                                        ///< coarse cell becomes level 3; <= 0 picks the calibrated default.
                                        ///< Dimensionless: sum over neighbours of (1 - n_i.n_j)(1 - d/R)
     std::uint64_t memory_limit_bytes = 0;  ///< bytes; budget for the largest allocations; 0: device and host limits
+    float level_hysteresis = 0.0f;     ///< adaptive mode, frame sequences: a coarse cell keeps its level of the
+                                       ///< previous frame until its curvature passes the threshold by this
+                                       ///< fraction of the threshold (level 3 stays 3 down to threshold (1 - h),
+                                       ///< level 2 stays 2 up to threshold (1 + h)); in [0, 1), 0 = off (each
+                                       ///< call independent of the previous). The CLI uses 0.2 for sequences:
+                                       ///< it removed 71% of the level changes between frames of the generated
+                                       ///< falling-drop without adding level-3 cells (README).
 };
 
 /// Calibrated default of Params::curvature_threshold (dimensionless; README, "Choosing the threshold").
@@ -82,6 +89,13 @@ struct Stats {
     std::uint64_t peak_memory_bytes = 0;   ///< bytes; process peak resident memory after the run
     std::uint64_t device_memory_bytes = 0; ///< bytes of device buffers allocated during the run (an upper bound)
     bool closed = false;                   ///< every edge used twice in opposite directions
+    /// Temporal coherence (adaptive mode, every frame after the first of a sequence): coarse cells
+    /// this frame shares with the previous one, how many of those changed level, and how many
+    /// cells Params::level_hysteresis held at their previous level.
+    bool level_history = false;            ///< a previous frame was compared (the three below are set)
+    std::size_t level_cells_compared = 0;
+    std::size_t level_flips = 0;
+    std::size_t level_held = 0;
     std::string device;                    ///< the OpenCL device that ran the kernels
 };
 
@@ -117,7 +131,15 @@ public:
     /// `xyz` holds `count` particles as x, y, z floats in world units (finite; read only during the
     /// call). `params` as documented there; `stats`, when not null, receives what the run did and
     /// cost. Returns the closed mesh. Throws Error on bad input or resources.
+    /// Successive calls are taken as successive frames of one sequence: in adaptive mode the levels
+    /// of each frame are remembered for the next (used when Params::level_hysteresis > 0; reported
+    /// in Stats::level_flips).
     Mesh reconstruct(const float* xyz, std::size_t count, const Params& params, Stats* stats = nullptr);
+
+    /// Forgets the previous frame's levels: call before the first frame of a new sequence (or
+    /// between unrelated inputs) so that it is reconstructed as if alone. A change of radius,
+    /// kernel radius, mode or cell resets the history too.
+    void reset_history();
 
     /// The OpenCL device this Reconstructor runs on.
     const DeviceInfo& device() const;
