@@ -9,13 +9,6 @@
 
 namespace trilevel {
 
-/// A per-particle quantity read alongside the positions (velocity, density, ...).
-struct ParticleAttribute {
-    std::string name;           ///< as named in the file
-    int components = 1;         ///< 1 (scalar) or 3 (vector)
-    std::vector<float> values;  ///< `components` floats per particle, in particle order
-};
-
 /// Particle positions read from a file, x, y, z per particle, in file order.
 struct ParticleSet {
     std::vector<float> positions;
