@@ -172,6 +172,17 @@ TEST_CASE("area-weighted normals of a tetrahedron are the normalised sums of its
     CHECK(at(area_weighted_normals(m), 0) == glm::dvec3(0.0));
 }
 
+TEST_CASE("a vertex out of every particle's reach keeps its area-weighted normal", "[normals]") {
+    const float xyz[3] = {0, 0, 0};
+    Mesh m;
+    m.positions = {0.09f, 0, 0, 5, 5, 5};  // the first within R = 0.1: the gradient is radial, +x
+    const std::vector<float> fallback = {0, 1, 0, 0, 0, 1};
+    const auto grid = vertex_particle_grid(xyz, 1, 0.025f, 0.1f);
+    const auto n = gradient_normals(m, grid, 0.025f, 0.1f, fallback);
+    CHECK(glm::length(at(n, 0) - glm::dvec3(1, 0, 0)) < 1e-6);
+    CHECK(at(n, 1) == glm::dvec3(0, 0, 1));
+}
+
 TEST_CASE("the closed-form eigenvalue agrees with the reference's QR iterations", "[normals]") {
     std::mt19937 rng(7);
     std::uniform_real_distribution<double> u(-3.0, 3.0);
