@@ -11,13 +11,14 @@ namespace trilevel {
 
 /// Particle positions read from a file, x, y, z per particle, in file order.
 struct ParticleSet {
-    std::vector<float> positions;
+    std::vector<float> positions;                ///< x, y, z per particle, world units (as in the file)
     std::vector<ParticleAttribute> attributes;  ///< only those asked for in ReadOptions::attributes
                                                 ///< (ParticleAttribute: trilevel.hpp)
     std::size_t dropped_invalid = 0;            ///< particles dropped by ReadOptions::drop_invalid
-    std::size_t size() const { return positions.size() / 3; }
+    std::size_t size() const { return positions.size() / 3; }  ///< number of particles
 };
 
+/// What read_particles reads besides the positions.
 struct ReadOptions {
     /// Attributes to read as well (VTK, VTU, BGEO); a name the file lacks is an Error.
     std::vector<std::string> attributes;
@@ -27,12 +28,15 @@ struct ReadOptions {
 };
 
 /// Reads particles by extension: .vtk (legacy, ASCII/BINARY), .vtu, .bgeo (gzip'd or not), .ply, .xyz
-/// (little-endian float32 triplets). Throws Error naming the file and what is wrong.
+/// (little-endian float32 triplets). Throws Error naming the file and what is wrong (also for a
+/// NaN/Inf coordinate unless options.drop_invalid).
 ParticleSet read_particles(const std::string& path, const ReadOptions& options = {});
 
-/// Writes particles by extension: .xyz, .ply (binary), .vtk (legacy binary). Atomic (temp + rename).
+/// Writes the positions of `particles` by extension: .xyz, .ply (binary), .vtk (legacy binary).
+/// Atomic (temp + rename). Throws Error naming the file.
 void write_particles(const std::string& path, const ParticleSet& particles);
 
+/// What write_mesh adds to the geometry.
 struct MeshWriteOptions {
     bool vertex_level = true;   ///< PLY: a `level` vertex property (2 or 3)
     bool color_levels = false;  ///< PLY: vertex colours, green = level 2, blue = level 3
@@ -50,11 +54,12 @@ void write_mesh(const std::string& path, const Mesh& mesh, const MeshWriteOption
 /// attribute, `a_x a_y a_z` in a row a vector `a`); used by tests and tools.
 Mesh read_mesh(const std::string& path);
 
-/// Names accepted by generate_scene.
+/// Names accepted by generate_scene, in a fixed order.
 std::vector<std::string> scene_names();
 
-/// Generates a particle scene on a jittered lattice of spacing 2*radius, deterministic for a seed:
-/// "block", "sphere", "dam-break", "pool-and-drop". Throws Error for an unknown name.
+/// Generates a particle scene on a jittered lattice of spacing 2*radius (radius r in world units,
+/// > 0), deterministic for a seed (same seed, same positions): "block", "sphere", "dam-break",
+/// "pool-and-drop". Throws Error for an unknown name.
 ParticleSet generate_scene(const std::string& name, float radius, std::uint64_t seed = 1);
 
 }  // namespace trilevel

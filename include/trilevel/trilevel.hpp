@@ -36,15 +36,17 @@ enum class NormalMode {
     Area,      ///< sum of the adjacent triangles' normals weighted by their area: the mesh's own shading normal
 };
 
-/// Reconstruction parameters. Lengths are in multiples of the particle radius r unless stated.
+/// Reconstruction parameters. Lengths are in multiples of the particle radius r unless stated;
+/// positions (input and output) are in world units.
 struct Params {
     float particle_radius = 0.0f;      ///< r, in world units (half the rest spacing); required, > 0
     float kernel_radius = 4.0f;        ///< R, support of the SPH kernels, in r (DESIGN §2)
-    Mode mode = Mode::Adaptive;
+    Mode mode = Mode::Adaptive;        ///< see Mode
     float cell = 1.0f;                 ///< uniform mode: marching-cubes cell size in r; 4/cell must be an integer
     float curvature_threshold = 0.0f;  ///< adaptive mode: mean cell curvature (paper eq. 3) at which a
-                                       ///< coarse cell becomes level 3; <= 0 picks the calibrated default
-    std::uint64_t memory_limit_bytes = 0;  ///< budget for the largest allocations; 0: device and host limits
+                                       ///< coarse cell becomes level 3; <= 0 picks the calibrated default.
+                                       ///< Dimensionless: sum over neighbours of (1 - n_i.n_j)(1 - d/R)
+    std::uint64_t memory_limit_bytes = 0;  ///< bytes; budget for the largest allocations; 0: device and host limits
     NormalMode normals = NormalMode::None; ///< per-vertex normals to compute (Mesh::normals)
 };
 
@@ -57,7 +59,7 @@ struct Attribute {
 using ParticleAttribute = Attribute;  ///< values per particle, in particle order
 using VertexAttribute = Attribute;    ///< values per mesh vertex, in vertex order
 
-/// Calibrated default of Params::curvature_threshold (see README, "Choosing the threshold").
+/// Calibrated default of Params::curvature_threshold (dimensionless; README, "Choosing the threshold").
 float default_curvature_threshold();
 
 /// Kind of a triangle in an adaptive mesh (paper Table 1: level-2, level-3 and patch triangles).
@@ -70,51 +72,54 @@ struct Mesh {
     std::vector<std::uint8_t> vertex_level;  ///< 2 or 3: finest lattice level the vertex lies on
     std::vector<TriangleKind> triangle_kind; ///< one per triangle
     std::vector<float> normals;              ///< x, y, z per vertex, unit length, outward; empty unless
-                                             ///< Params::normals asks for them
+                                             ///< Params::normals asks for them (NormalMode::Area: zero
+                                             ///< at a vertex whose triangles all have zero area)
     std::vector<VertexAttribute> attributes; ///< particle attributes interpolated at the vertices
 
     std::size_t vertex_count() const { return positions.size() / 3; }
     std::size_t triangle_count() const { return triangles.size() / 3; }
 };
 
-/// What one reconstruction did and cost (DESIGN §10).
+/// What one reconstruction did and cost (DESIGN §10). Counts unless stated; cells are coarse cells
+/// of 4r, the "level" of a cell is the lattice it is meshed on (2: step 2r, 3: step r).
 struct Stats {
-    std::size_t particles = 0;
-    std::size_t surface_particles = 0;
-    std::size_t splash_particles = 0;
+    std::size_t particles = 0;              ///< input particles
+    std::size_t surface_particles = 0;      ///< particles near the surface (colour-field gradient, DESIGN §3.1)
+    std::size_t splash_particles = 0;       ///< particles with fewer than 3 neighbours within R
     std::size_t surface_cells = 0;          ///< coarse cells after band closure
-    std::size_t surface_cells_level2 = 0;
-    std::size_t surface_cells_level3 = 0;
-    std::size_t splash_cells = 0;
+    std::size_t surface_cells_level2 = 0;   ///< of those, cells meshed on the 2r lattice
+    std::size_t surface_cells_level3 = 0;   ///< of those, cells meshed on the r lattice
+    std::size_t splash_cells = 0;           ///< cells forced to level 3 by a nearby splash or thin particle
     std::size_t band_closure_cells = 0;     ///< coarse cells added by band closure (DESIGN §7)
     std::size_t fine_points = 0;            ///< unique fine lattice points evaluated
     std::size_t fine_points_level2 = 0;     ///< of those, points on the level-2 lattice
     std::size_t fine_points_level3 = 0;     ///< of those, points only on the level-3 lattice
-    std::size_t vertices = 0;
-    std::size_t triangles = 0;
-    std::size_t triangles_level2 = 0;
-    std::size_t triangles_level3 = 0;
-    std::size_t triangles_patch = 0;
-    std::vector<std::pair<std::string, double>> time_ms;  ///< per stage in pipeline order, then "total"
-    std::vector<std::pair<std::string, double>> kernel_ms; ///< OpenCL profiling time per kernel
-    std::uint64_t peak_memory_bytes = 0;   ///< process peak resident memory after the run
-    std::uint64_t device_memory_bytes = 0; ///< device buffers allocated during the run (an upper bound)
+    std::size_t vertices = 0;               ///< of the mesh (Mesh::vertex_count)
+    std::size_t triangles = 0;              ///< of the mesh; the sum of the three kinds below
+    std::size_t triangles_level2 = 0;       ///< TriangleKind::Level2
+    std::size_t triangles_level3 = 0;       ///< TriangleKind::Level3
+    std::size_t triangles_patch = 0;        ///< TriangleKind::Patch (crack closing, DESIGN §8)
+    std::vector<std::pair<std::string, double>> time_ms;  ///< milliseconds (wall) per stage in pipeline order, then "total"
+    std::vector<std::pair<std::string, double>> kernel_ms; ///< milliseconds of OpenCL profiling time per kernel
+    std::uint64_t peak_memory_bytes = 0;   ///< bytes; process peak resident memory after the run
+    std::uint64_t device_memory_bytes = 0; ///< bytes of device buffers allocated during the run (an upper bound)
     bool closed = false;                   ///< every edge used twice in opposite directions
     std::string device;                    ///< the OpenCL device that ran the kernels
 };
 
-/// Writes the statistics as a JSON object (keys as in README "Statistics").
+/// Writes the statistics as a JSON object (keys as in README "Statistics"), with `params` under
+/// "parameters" (the curvature threshold actually used).
 std::string stats_to_json(const Stats& stats, const Params& params);
 
 /// An OpenCL device as listed by `trilevel devices`.
 struct DeviceInfo {
     int index = 0;            ///< global index over all platforms, as accepted by --device
-    std::string platform;
-    std::string name;
+    std::string platform;     ///< OpenCL platform name, e.g. "Portable Computing Language"
+    std::string name;         ///< device name, as in Stats::device
     std::string type;         ///< "GPU", "CPU", "ACCELERATOR", "OTHER"
-    unsigned compute_units = 0;
-    std::uint64_t global_memory = 0;
-    std::uint64_t max_allocation = 0;
+    unsigned compute_units = 0;       ///< CL_DEVICE_MAX_COMPUTE_UNITS
+    std::uint64_t global_memory = 0;  ///< bytes (CL_DEVICE_GLOBAL_MEM_SIZE)
+    std::uint64_t max_allocation = 0; ///< bytes, largest single buffer (CL_DEVICE_MAX_MEM_ALLOC_SIZE)
     bool int64_atomics = false; ///< cl_khr_int64_base_atomics, required
 };
 
@@ -131,7 +136,9 @@ public:
     Reconstructor(Reconstructor&&) noexcept;
     Reconstructor& operator=(Reconstructor&&) noexcept;
 
-    /// `xyz` holds `count` particles as x, y, z floats. Throws Error on bad input or resources.
+    /// `xyz` holds `count` particles as x, y, z floats in world units (finite; read only during the
+    /// call). `params` as documented there; `stats`, when not null, receives what the run did and
+    /// cost. Returns the closed mesh. Throws Error on bad input or resources.
     Mesh reconstruct(const float* xyz, std::size_t count, const Params& params, Stats* stats = nullptr);
 
     /// The same, and every attribute interpolated at the mesh vertices (Mesh::attributes, same
@@ -142,6 +149,7 @@ public:
     Mesh reconstruct(const float* xyz, std::size_t count, const Params& params, Stats* stats,
                      const std::vector<ParticleAttribute>& attributes);
 
+    /// The OpenCL device this Reconstructor runs on.
     const DeviceInfo& device() const;
 
 private:
