@@ -86,6 +86,8 @@ struct ReconstructArgs {
     std::string start, end;  // frame sequences: range of frame numbers
     int device = -1;
     bool color_levels = false, quiet = false, skip_existing = false;
+    std::string normals;                  ///< "" (none), "gradient" or "area"
+    std::vector<std::string> attributes;  ///< particle attributes to interpolate at the vertices
 };
 
 trilevel::Params make_params(const ReconstructArgs& a) {
@@ -107,6 +109,9 @@ trilevel::Params make_params(const ReconstructArgs& a) {
         if (!(h >= 0 && h < 1)) throw UsageError("--level-hysteresis must lie in [0, 1), got '" + a.hysteresis + "'");
         p.level_hysteresis = static_cast<float>(h);
     }
+    if (a.normals == "gradient") p.normals = trilevel::NormalMode::Gradient;
+    else if (a.normals == "area") p.normals = trilevel::NormalMode::Area;
+    else if (!a.normals.empty()) throw UsageError("--normals must be gradient or area (or given alone), got '" + a.normals + "'");
     return p;
 }
 
@@ -124,16 +129,32 @@ double total_ms(const trilevel::Stats& s, double wall_ms) {
     return wall_ms;
 }
 
+/// The attributes asked for with --attribute, in that order; Error for one the file did not give.
+std::vector<trilevel::ParticleAttribute> requested_attributes(const std::string& input, const trilevel::ParticleSet& set,
+                                                              const std::vector<std::string>& names) {
+    std::vector<trilevel::ParticleAttribute> out;
+    for (const auto& name : names) {
+        const auto it = std::find_if(set.attributes.begin(), set.attributes.end(), [&](const auto& a) { return a.name == name; });
+        if (it == set.attributes.end())
+            throw trilevel::Error(input + ": no particle attribute '" + name + "' (attributes are read from .vtk, .vtu and .bgeo files)");
+        out.push_back(*it);
+    }
+    return out;
+}
+
 /// One input file -> one mesh (and stats) file. Prints the summary unless quiet or `result` is
 /// given, which receives a one-line summary and the level changes instead (frame sequences).
 void reconstruct_file(trilevel::Reconstructor& rec, const trilevel::Params& params, const ReconstructArgs& a,
                       const std::string& input, const std::string& output, const std::string& stats_path,
                       trilevel::cli::FrameResult* result = nullptr) {
     const auto start = std::chrono::steady_clock::now();
-    const trilevel::ParticleSet particles = trilevel::read_particles(input);
+    trilevel::ReadOptions read_options;
+    read_options.attributes = a.attributes;
+    const trilevel::ParticleSet particles = trilevel::read_particles(input, read_options);
     if (particles.size() == 0) throw trilevel::Error(input + ": holds no particles");
+    const auto attributes = requested_attributes(input, particles, a.attributes);
     trilevel::Stats stats;
-    const trilevel::Mesh mesh = rec.reconstruct(particles.positions.data(), particles.size(), params, &stats);
+    const trilevel::Mesh mesh = rec.reconstruct(particles.positions.data(), particles.size(), params, &stats, attributes);
     trilevel::MeshWriteOptions options;
     options.color_levels = a.color_levels;
     trilevel::write_mesh(output, mesh, options);
@@ -355,6 +376,12 @@ int run(int argc, char** argv) {
     rec->add_option("--device", ra.device, "OpenCL device index (see `trilevel devices`)");
     rec->add_option("--stats", ra.stats, "Write statistics as JSON");
     rec->add_flag("--color-levels", ra.color_levels, "PLY: colour vertices by level (green 2, blue 3)");
+    auto* normals = rec->add_option("--normals", ra.normals,
+                                    "Per-vertex normals: gradient of the scalar field (alone or 'gradient') or 'area' (area-weighted)")
+                        ->expected(0, 1);
+    rec->add_option("--attribute", ra.attributes,
+                    "Particle attribute to interpolate at the vertices (e.g. velocity; .vtk/.vtu/.bgeo input; repeatable)")
+        ->allow_extra_args(false);  // one name per --attribute, so a following input file stays positional
     rec->add_option("--memory-limit", ra.memory, "Budget for the largest allocations, bytes or e.g. 2G");
     rec->add_flag("-q,--quiet", ra.quiet, "Print nothing on success");
     rec->add_option("--level-hysteresis", ra.hysteresis,
@@ -388,6 +415,7 @@ int run(int argc, char** argv) {
     } catch (const CLI::ParseError& e) {
         return report(e.what(), 2);
     }
+    if (rec->parsed() && normals->count() > 0 && ra.normals.empty()) ra.normals = "gradient";
     if (rec->parsed()) return run_reconstruct(ra);
     if (gen->parsed()) return run_generate(ga);
     if (info->parsed()) return run_info(info_input);

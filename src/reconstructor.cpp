@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <unordered_map>
 
 #include <sys/resource.h>
@@ -18,6 +19,7 @@
 #include "stage_constants.hpp"
 #include "surface_mesher.hpp"
 #include "transition_continuity.hpp"
+#include "vertex_data.hpp"
 #include "trilevel/trilevel.hpp"
 
 namespace trilevel {
@@ -60,6 +62,8 @@ void validate(const Params& p) {
         if (std::fabs(steps - std::round(steps)) > 1e-4f || std::round(steps) < 1.0f || std::round(steps) > 64.0f)
             throw Error("cell size " + std::to_string(p.cell) + " must divide the coarse cell of 4 radii (e.g. 0.5, 1, 2, 4)");
     }
+    if (p.normals != NormalMode::None && p.normals != NormalMode::Gradient && p.normals != NormalMode::Area)
+        throw Error("normals must be NormalMode::None, Gradient or Area");
     if (p.mode == Mode::Adaptive && p.curvature_threshold != 0.0f && !(std::isfinite(p.curvature_threshold) && p.curvature_threshold > 0.0f))
         throw Error("curvature threshold must be finite and > 0, got " + std::to_string(p.curvature_threshold));
     if (!(p.level_hysteresis >= 0.0f && p.level_hysteresis < 1.0f))
@@ -192,6 +196,24 @@ void refine_level2_edges(OpenCLRuntime& rt, FinePoints& points, FinePointMap& fi
     field = map_fine_points(rt, points);
 }
 
+/// Stage 11 (host/vertex_data.hpp): normals and attributes at the vertices, each timed when asked for.
+void add_vertex_data(Mesh& mesh, const float* xyz, std::size_t n, const Params& p,
+                     const std::vector<ParticleAttribute>& attributes, StageTimer& timer) {
+    if (p.normals == NormalMode::None && attributes.empty()) return;
+    const float r = p.particle_radius, R = p.kernel_radius * r;
+    std::optional<reference::ParticleGrid> grid;  // only the area-weighted normals need no particles
+    if (p.normals == NormalMode::Gradient || !attributes.empty()) grid.emplace(vertex_particle_grid(xyz, n, r, R));
+    if (p.normals != NormalMode::None) {
+        mesh.normals = area_weighted_normals(mesh);
+        if (p.normals == NormalMode::Gradient) mesh.normals = gradient_normals(mesh, *grid, r, R, mesh.normals);
+        timer.stage("normals");
+    }
+    if (!attributes.empty()) {
+        mesh.attributes = interpolate_attributes(mesh, *grid, xyz, n, R, attributes);
+        timer.stage("attributes");
+    }
+}
+
 std::uint64_t peak_rss_bytes() {
     rusage u{};
     getrusage(RUSAGE_SELF, &u);
@@ -212,11 +234,13 @@ struct Reconstructor::Impl {
     OpenCLRuntime rt;
     LevelHistory history;  ///< levels of the previous frame (adaptive mode)
     Params history_params;
-    Mesh run(const float* xyz, std::size_t n, const Params& p, Stats& s);
+    Mesh run(const float* xyz, std::size_t n, const Params& p, const std::vector<ParticleAttribute>& attributes,
+             Stats& s);
     void remember_levels(const std::vector<CoarseCell>& cells, const Grid& g, const Params& p, Stats& s);
 };
 
-Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, Stats& s) {
+Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p,
+                              const std::vector<ParticleAttribute>& attributes, Stats& s) {
     StageTimer timer(s);
     const Grid g = make_grid(p, xyz, n);
     const float r = p.particle_radius, R = p.kernel_radius * r;
@@ -256,6 +280,7 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     unmap_fine_points(rt, points);
     points = FinePoints{};
     timer.stage("triangulation");
+    add_vertex_data(mesh, xyz, n, p, attributes, timer);
     count_mesh(mesh, s);
     s.closed = is_closed_and_oriented(mesh);
     remember_levels(cells, g, p, s);
@@ -290,15 +315,21 @@ const DeviceInfo& Reconstructor::device() const { return impl_->rt.info(); }
 void Reconstructor::reset_history() { impl_->history.reset(); }
 
 Mesh Reconstructor::reconstruct(const float* xyz, std::size_t count, const Params& params, Stats* stats) {
+    return reconstruct(xyz, count, params, stats, {});
+}
+
+Mesh Reconstructor::reconstruct(const float* xyz, std::size_t count, const Params& params, Stats* stats,
+                                const std::vector<ParticleAttribute>& attributes) {
     validate(params);
     if (count == 0) throw Error("no particles to reconstruct (the input is empty)");
     if (count > std::numeric_limits<std::uint32_t>::max() / 2) throw Error("too many particles for one frame");
+    validate_attributes(attributes, count);
     Stats local;
     Stats& s = stats ? *stats : local;
     s = Stats{};
     auto t0 = Clock::now();
     try {
-        Mesh m = impl_->run(xyz, count, params, s);
+        Mesh m = impl_->run(xyz, count, params, attributes, s);
         s.time_ms.emplace_back("total", std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
         return m;
     } catch (const cl::Error& e) {

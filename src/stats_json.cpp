@@ -38,6 +38,7 @@ std::string stats_to_json(const Stats& s, const Params& p) {
                        {"kernel_radius", p.kernel_radius},
                        {"mode", p.mode == Mode::Adaptive ? "adaptive" : "uniform"},
                        {"cell", p.cell},
+                       {"normals", p.normals == NormalMode::Gradient ? "gradient" : p.normals == NormalMode::Area ? "area" : "none"},
                        {"curvature_threshold", p.curvature_threshold > 0 ? p.curvature_threshold : default_curvature_threshold()},
                        {"level_hysteresis", p.level_hysteresis}};
     return j.dump(2) + "\n";

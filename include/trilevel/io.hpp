@@ -9,17 +9,11 @@
 
 namespace trilevel {
 
-/// A per-particle quantity read alongside the positions (velocity, density, ...).
-struct ParticleAttribute {
-    std::string name;           ///< as named in the file
-    int components = 1;         ///< 1 (scalar) or 3 (vector)
-    std::vector<float> values;  ///< `components` floats per particle, in particle order
-};
-
 /// Particle positions read from a file, x, y, z per particle, in file order.
 struct ParticleSet {
     std::vector<float> positions;                ///< x, y, z per particle, world units (as in the file)
     std::vector<ParticleAttribute> attributes;  ///< only those asked for in ReadOptions::attributes
+                                                ///< (ParticleAttribute: trilevel.hpp)
     std::size_t dropped_invalid = 0;            ///< particles dropped by ReadOptions::drop_invalid
     std::size_t size() const { return positions.size() / 3; }  ///< number of particles
 };
@@ -49,10 +43,15 @@ struct MeshWriteOptions {
 };
 
 /// Writes a mesh by extension: .ply (binary little-endian), .obj, .vtk (legacy binary POLYDATA).
+/// Normals: PLY nx ny nz, VTK NORMALS, OBJ vn. Attributes: PLY float properties `name` or
+/// `name_x name_y name_z`, VTK SCALARS or VECTORS; OBJ cannot hold them and leaves them out.
+/// An attribute name with white space or one that collides with another property is an Error.
 /// Written to a temporary file in the target directory and renamed; never leaves a partial file.
 void write_mesh(const std::string& path, const Mesh& mesh, const MeshWriteOptions& options = {});
 
-/// Reads a mesh written by write_mesh (.ply binary/ascii, .obj, .vtk); used by tests and tools.
+/// Reads a mesh written by write_mesh (.ply binary/ascii, .obj, .vtk), normals and attributes
+/// included (PLY: every vertex property but x, y, z, nx, ny, nz, level, red, green, blue is an
+/// attribute, `a_x a_y a_z` in a row a vector `a`); used by tests and tools.
 Mesh read_mesh(const std::string& path);
 
 /// Names accepted by generate_scene, in a fixed order.

@@ -28,6 +28,14 @@ enum class Mode {
     Uniform,   ///< every surface cell meshed with cells of `Params::cell` (the paper's baselines)
 };
 
+/// Per-vertex normals of the output mesh (Mesh::normals).
+enum class NormalMode {
+    None,      ///< no normals (Mesh::normals stays empty)
+    Gradient,  ///< grad(phi)/|grad(phi)| of the scalar field (DESIGN §3.3) at the vertex: the normal
+               ///< of the smooth surface the mesh approximates
+    Area,      ///< sum of the adjacent triangles' normals weighted by their area: the mesh's own shading normal
+};
+
 /// Reconstruction parameters. Lengths are in multiples of the particle radius r unless stated;
 /// positions (input and output) are in world units.
 struct Params {
@@ -46,7 +54,17 @@ struct Params {
                                        ///< call independent of the previous). The CLI uses 0.2 for sequences:
                                        ///< it removed 71% of the level changes between frames of the generated
                                        ///< falling-drop without adding level-3 cells (README).
+    NormalMode normals = NormalMode::None; ///< per-vertex normals to compute (Mesh::normals)
 };
+
+/// A named quantity per particle (input) or per mesh vertex (output): velocity, density, ...
+struct Attribute {
+    std::string name;           ///< as named in the file; no white space (PLY and VTK headers)
+    int components = 1;         ///< 1 (scalar) or 3 (vector)
+    std::vector<float> values;  ///< `components` floats per element, in element order
+};
+using ParticleAttribute = Attribute;  ///< values per particle, in particle order
+using VertexAttribute = Attribute;    ///< values per mesh vertex, in vertex order
 
 /// Calibrated default of Params::curvature_threshold (dimensionless; README, "Choosing the threshold").
 float default_curvature_threshold();
@@ -60,6 +78,10 @@ struct Mesh {
     std::vector<std::uint32_t> triangles;    ///< three vertex indices per triangle
     std::vector<std::uint8_t> vertex_level;  ///< 2 or 3: finest lattice level the vertex lies on
     std::vector<TriangleKind> triangle_kind; ///< one per triangle
+    std::vector<float> normals;              ///< x, y, z per vertex, unit length, outward; empty unless
+                                             ///< Params::normals asks for them (NormalMode::Area: zero
+                                             ///< at a vertex whose triangles all have zero area)
+    std::vector<VertexAttribute> attributes; ///< particle attributes interpolated at the vertices
 
     std::size_t vertex_count() const { return positions.size() / 3; }
     std::size_t triangle_count() const { return triangles.size() / 3; }
@@ -140,6 +162,13 @@ public:
     /// between unrelated inputs) so that it is reconstructed as if alone. A change of radius,
     /// kernel radius, mode or cell resets the history too.
     void reset_history();
+    /// The same, and every attribute interpolated at the mesh vertices (Mesh::attributes, same
+    /// order) with Shepard-normalised SPH weights: A(v) = sum_j k_j A_j / sum_j k_j, with the
+    /// field's kernel k_j = (1 - |v - x_j|^2 / R^2)^3 over the particles within R; exact for
+    /// constant attributes. A vertex with no particle within R takes its nearest particle's value.
+    /// Each attribute needs `components` (1 or 3) finite values per particle and a distinct name.
+    Mesh reconstruct(const float* xyz, std::size_t count, const Params& params, Stats* stats,
+                     const std::vector<ParticleAttribute>& attributes);
 
     /// The OpenCL device this Reconstructor runs on.
     const DeviceInfo& device() const;

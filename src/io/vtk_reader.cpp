@@ -226,17 +226,30 @@ void read_polygons(VtkCursor& cur, const std::vector<std::string_view>& t, bool 
     }
 }
 
-/// POINT_DATA <n>, then SCALARS level <type> 1, LOOKUP_TABLE default, values.
-void read_point_levels(VtkCursor& cur, bool binary, Mesh& mesh) {
-    auto l = cur.line();
-    const auto t = l ? split_ws(*l) : std::vector<std::string_view>{};
-    if (t.size() < 3 || upper(t[0]) != "SCALARS" || t[1] != "level") return;  // other point data: ignored
+/// One POINT_DATA array of a mesh: SCALARS level (the vertex level), NORMALS, other SCALARS
+/// (1 or 3 components) and VECTORS as vertex attributes.
+void read_point_array(VtkCursor& cur, const std::vector<std::string_view>& t, bool binary, Mesh& mesh) {
+    const std::string kw = upper(t[0]);
+    const bool scalars = kw == "SCALARS";
+    if (t.size() < 3) cur.error("expected " + kw + " <name> <type>");
     const auto type = vtk_type(t[2]);
-    if (!type) cur.error("unsupported SCALARS type '" + std::string(t[2]) + "'");
-    auto lut = cur.line();
-    if (!lut || upper(lut->substr(0, 12)) != "LOOKUP_TABLE") cur.error("expected LOOKUP_TABLE default");
-    const auto v = cur.read_ints(mesh.vertex_count(), *type, binary);
-    mesh.vertex_level.assign(v.begin(), v.end());
+    if (!type) cur.error("unsupported " + kw + " type '" + std::string(t[2]) + "'");
+    std::uint64_t comps = scalars ? 1 : 3;
+    if (scalars && t.size() > 3) comps = parse_count(cur, t[3], "a component count");
+    if (comps != 1 && comps != 3) cur.error(kw + " " + std::string(t[1]) + ": " + std::to_string(comps) + " components, expected 1 or 3");
+    if (scalars) {
+        auto lut = cur.line();
+        if (!lut || upper(lut->substr(0, 12)) != "LOOKUP_TABLE") cur.error("expected LOOKUP_TABLE default");
+    }
+    const std::uint64_t n = comps * mesh.vertex_count();
+    if (scalars && t[1] == "level" && comps == 1) {
+        const auto v = cur.read_ints(n, *type, binary);
+        mesh.vertex_level.assign(v.begin(), v.end());
+    } else if (kw == "NORMALS") {
+        mesh.normals = cur.read_array(n, *type, binary);
+    } else {
+        mesh.attributes.push_back({std::string(t[1]), int(comps), cur.read_array(n, *type, binary)});
+    }
 }
 
 }  // namespace
@@ -252,12 +265,23 @@ Mesh read_vtk_mesh(const std::string& path, const std::string& data) {
     const bool binary = read_header(cur);
     Mesh mesh;
     mesh.positions = read_points_section(cur, binary);
+    bool point_data = false;
     for (auto l = cur.line(); l; l = cur.line()) {
         const auto t = split_ws(*l);
         const std::string kw = upper(t[0]);
-        if (kw == "POLYGONS") read_polygons(cur, t, binary, mesh);
-        else if (kw == "POINT_DATA") read_point_levels(cur, binary, mesh);
-        else cur.error("unexpected '" + std::string(t[0]) + "' in a mesh file (expected POLYGONS or POINT_DATA)");
+        if (kw == "POLYGONS") {
+            read_polygons(cur, t, binary, mesh);
+        } else if (kw == "POINT_DATA") {
+            if (t.size() < 2 || parse_count(cur, t[1], "POINT_DATA <n>") != mesh.vertex_count())
+                cur.error("POINT_DATA count does not match the " + std::to_string(mesh.vertex_count()) + " points");
+            point_data = true;
+        } else if (point_data && (kw == "SCALARS" || kw == "NORMALS" || kw == "VECTORS")) {
+            read_point_array(cur, t, binary, mesh);
+        } else if (kw == "FIELD") {
+            skip_field(cur, t, binary);
+        } else {
+            cur.error("unexpected '" + std::string(t[0]) + "' in a mesh file (expected POLYGONS or POINT_DATA arrays)");
+        }
     }
     return mesh;
 }
