@@ -69,6 +69,28 @@ float to_float_checked(const std::string& path, double v, std::size_t value_inde
     return static_cast<float>(v);
 }
 
+void missing_attribute(const std::string& path, const std::string& name, const std::vector<std::string>& available) {
+    std::string list;
+    for (const auto& a : available) list += (list.empty() ? "" : ", ") + a;
+    fail(path, "no point attribute '" + name + "'" + (list.empty() ? " (the file has none)" : " (the file has: " + list + ")"));
+}
+
+std::string byte_size_text(std::uint64_t bytes) {
+    static const char* units[] = {"bytes", "kB", "MB", "GB", "TB", "PB", "EB"};
+    double v = static_cast<double>(bytes);
+    int u = 0;
+    while (v >= 1000.0 && u < 6) { v /= 1000.0; ++u; }
+    char buf[32];
+    std::snprintf(buf, sizeof buf, u == 0 ? "%.0f %s" : "%.3g %s", v, units[u]);
+    return buf;
+}
+
+std::uint64_t mul_checked(const std::string& path, const std::string& where, std::uint64_t a, std::uint64_t b,
+                          const char* what) {
+    if (a != 0 && b > UINT64_MAX / a) fail(path, where + ": " + what + " overflows");
+    return a * b;
+}
+
 std::size_t scalar_size(Scalar t) {
     switch (t) {
         case Scalar::I8: case Scalar::U8: return 1;
@@ -94,8 +116,20 @@ double load_scalar(const char* p, Scalar t, bool big) {
     return 0.0;
 }
 
+std::vector<float> convert_values(const char* p, std::size_t count, Scalar t, bool big) {
+    std::vector<float> out(count);
+    const std::size_t size = scalar_size(t);
+    if (t == Scalar::F32) {
+        for (std::size_t i = 0; i < count; ++i) out[i] = load<float>(p + i * 4, big);
+    } else {
+        for (std::size_t i = 0; i < count; ++i) out[i] = narrow_to_float(load_scalar(p + i * size, t, big));
+    }
+    return out;
+}
+
 std::vector<float> convert_coords(const std::string& path, const char* p, std::size_t count, Scalar t,
-                                  bool big) {
+                                  bool big, bool finite_only) {
+    if (!finite_only) return convert_values(p, count, t, big);  // the caller drops NaN/Inf particles
     std::vector<float> out(count);
     const std::size_t size = scalar_size(t);
     if (t == Scalar::F32) {  // the common case: no double round trip
