@@ -83,7 +83,7 @@ struct ReconstructArgs {
     std::string input, output, radius, kernel_radius = "4", mode = "adaptive", cell = "1", threshold, memory,
         stats;
     int device = -1;
-    bool color_levels = false, quiet = false;
+    bool color_levels = false, quiet = false, drop_invalid = false;
 };
 
 trilevel::Params make_params(const ReconstructArgs& a) {
@@ -112,7 +112,11 @@ double total_ms(const trilevel::Stats& s, double wall_ms) {
 void reconstruct_file(trilevel::Reconstructor& rec, const trilevel::Params& params, const ReconstructArgs& a,
                       const std::string& input, const std::string& output, const std::string& stats_path) {
     const auto start = std::chrono::steady_clock::now();
-    const trilevel::ParticleSet particles = trilevel::read_particles(input);
+    trilevel::ReadOptions read_options;
+    read_options.drop_invalid = a.drop_invalid;
+    const trilevel::ParticleSet particles = trilevel::read_particles(input, read_options);
+    if (particles.dropped_invalid > 0)
+        std::fprintf(stderr, "warning: %s: dropped %zu particles with NaN/Inf coordinates\n", input.c_str(), particles.dropped_invalid);
     if (particles.size() == 0) throw trilevel::Error(input + ": holds no particles");
     trilevel::Stats stats;
     const trilevel::Mesh mesh = rec.reconstruct(particles.positions.data(), particles.size(), params, &stats);
@@ -346,6 +350,7 @@ int run(int argc, char** argv) {
     rec->add_flag("--color-levels", ra.color_levels, "PLY: colour vertices by level (green 2, blue 3)");
     rec->add_option("--memory-limit", ra.memory, "Budget for the largest allocations, bytes or e.g. 2G");
     rec->add_flag("-q,--quiet", ra.quiet, "Print nothing on success");
+    rec->add_flag("--drop-invalid", ra.drop_invalid, "Drop particles with NaN/Inf coordinates (with a warning) instead of failing");
 
     GenerateArgs ga;
     auto* gen = app.add_subcommand("generate", "Writes a test particle scene");
