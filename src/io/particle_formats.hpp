@@ -48,6 +48,12 @@ public:
     /// also -1 for a second array of that name in the same piece (the first one counts).
     int wanted(std::string_view name);
 
+    /// Whether `name` is requested (without noting it as a name the file has).
+    bool requested(std::string_view name) const {
+        for (const auto& a : attrs_) if (a.name == name) return true;
+        return false;
+    }
+
     /// Starts the next VTU piece: each requested attribute is read once per piece.
     void next_piece() { taken_.assign(attrs_.size(), false); }
 

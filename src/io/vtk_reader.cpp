@@ -327,8 +327,14 @@ private:
             if (t.size() < 4) cur_.error("expected <array name> <components> <tuples> <type> in FIELD");
             const std::uint64_t comps = count(t, 1, "a component count"), tuples = count(t, 2, "a tuple count");
             const Scalar type = type_of(t, 3, "<array name> <components> <tuples> <type>");
-            if (point_mode_ && tuples == points_) values(t[0], comps, type);
-            else cur_.skip_array(mul(comps, tuples), type, binary_);
+            if (point_mode_ && tuples == points_) {
+                values(t[0], comps, type);
+                continue;
+            }
+            if (point_mode_ && sink_.requested(t[0]))
+                cur_.error("FIELD array '" + std::string(t[0]) + "' has " + std::to_string(tuples) + " tuples, expected one per point (" +
+                           std::to_string(points_) + ")");
+            cur_.skip_array(mul(comps, tuples), type, binary_);
         }
     }
 
