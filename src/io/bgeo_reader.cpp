@@ -4,6 +4,7 @@
 // A gzip'd file is inflated only as far as the reader needs, so that a header claiming more
 // points than the compressed bytes could hold is an error before any large inflate.
 #include <algorithm>
+#include <cmath>
 
 #include <zlib.h>
 
@@ -175,6 +176,10 @@ ParticleSet read_bgeo(const ReadRequest& r) {
     if (n < 0 || attrs < 0)
         fail(path, "offset 9: corrupt BGEO header: negative " + std::string(n < 0 ? "point" : "point attribute") + " count " +
                        std::to_string(n < 0 ? n : attrs));
+    // each definition takes 8 bytes at least (name length, size, type): bound the table first
+    if (static_cast<std::uint64_t>(attrs) > (bytes.max_size() - std::min<std::uint64_t>(cur.pos, bytes.max_size())) / 8)
+        fail(path, "offset 25: point attribute count " + std::to_string(attrs) + " needs at least " +
+                       byte_size_text(8 * std::uint64_t(attrs)) + " but the file has " + byte_size_text(r.data.size()));
     std::vector<BgeoAttribute> table;
     std::size_t stride = 4;  // P: x y z w (32-bit words); each attribute adds at most 65535
     for (std::int32_t a = 0; a < attrs; ++a) {
@@ -198,7 +203,10 @@ ParticleSet read_bgeo(const ReadRequest& r) {
     set.positions.resize(3 * static_cast<std::size_t>(n));
     for (std::size_t i = 0; i < static_cast<std::size_t>(n); ++i)
         for (std::size_t k = 0; k < 3; ++k) set.positions[3 * i + k] = load<float>(base + i * record + 4 * k, true);
-    if (!r.keep_invalid) check_finite(path, set.positions);
+    for (std::size_t i = 0; !r.keep_invalid && i < set.positions.size(); ++i)
+        if (!std::isfinite(set.positions[i]))
+            fail(path, "offset " + std::to_string(cur.pos + (i / 3) * record + 4 * (i % 3)) + (bytes.gzipped() ? " (uncompressed)" : "") +
+                           ": particle " + std::to_string(i / 3) + ": non-finite coordinate (NaN or Inf)");
     AttributeSink sink(r);
     read_attributes(path, base, static_cast<std::size_t>(n), record, table, sink);
     set.attributes = sink.finish(set.size());

@@ -26,11 +26,20 @@ std::string read_file(const std::string& path);
 /// Lower-case extension without the dot ("vtk"), empty when there is none.
 std::string extension_of(const std::string& path);
 
+/// Where a coordinate array lies, for messages: `base` is the file offset of its first value
+/// when the values are stored there uncompressed (then the message names the exact offset),
+/// otherwise `label` (e.g. "offset 291: the Points") prefixes the message.
+struct ArrayLocation {
+    std::size_t base = SIZE_MAX;
+    std::string label;
+    std::string at(std::size_t value_index, std::size_t value_size) const;  ///< "offset N: " or "label: " or ""
+};
+
 /// Error naming the first non-finite coordinate.
-void check_finite(const std::string& path, const std::vector<float>& xyz);
+void check_finite(const std::string& path, const std::vector<float>& xyz, const ArrayLocation& where = {});
 
 /// Narrows a double coordinate; Error when it is not finite or does not fit a float.
-float to_float_checked(const std::string& path, double v, std::size_t value_index);
+float to_float_checked(const std::string& path, double v, std::size_t value_index, const std::string& where = {});
 
 /// Error "no point attribute 'name' (the file has: a, b)".
 [[noreturn]] void missing_attribute(const std::string& path, const std::string& name,
@@ -83,7 +92,7 @@ double load_scalar(const char* p, Scalar t, bool big_endian);
 /// Converts `count` values of type t starting at p to float coordinates, rejecting non-finite ones
 /// unless `finite_only` is false (then NaN stays NaN and out-of-range values become +-Inf).
 std::vector<float> convert_coords(const std::string& path, const char* p, std::size_t count, Scalar t,
-                                  bool big_endian, bool finite_only = true);
+                                  bool big_endian, bool finite_only = true, const ArrayLocation& where = {});
 
 /// A double as the nearest float, +-Inf beyond the float range (no undefined conversion), NaN kept.
 inline float narrow_to_float(double v) {

@@ -16,7 +16,7 @@ ParticleSet read_xyz(const ReadRequest& r) {
         fail(r.path, "size " + std::to_string(r.data.size()) + " bytes is not a multiple of 12 (raw float32 x, y, z triplets)");
     AttributeSink sink(r);  // raw triplets carry no attributes: any requested one is an error
     ParticleSet set;
-    set.positions = convert_coords(r.path, r.data.data(), r.data.size() / 4, Scalar::F32, false, !r.keep_invalid);
+    set.positions = convert_coords(r.path, r.data.data(), r.data.size() / 4, Scalar::F32, false, !r.keep_invalid, {0, {}});
     set.attributes = sink.finish(set.size());
     return set;
 }

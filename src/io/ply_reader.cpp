@@ -197,7 +197,8 @@ void read_binary_vertices(const std::string& path, const std::string& data, cons
                 w.need(scalar_size(p.type));
                 const double x = load_scalar(data.data() + w.pos, p.type, w.big);
                 (*s.dst)[s.stride * i + s.comp] =
-                    s.coord && !keep_invalid ? to_float_checked(path, x, 3 * i + s.comp) : narrow_to_float(x);
+                    s.coord && !keep_invalid ? to_float_checked(path, x, 3 * i + s.comp, "offset " + std::to_string(w.pos) + ": ")
+                                             : narrow_to_float(x);
             }
             w.skip_property(p);
         }

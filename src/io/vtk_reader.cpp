@@ -123,7 +123,7 @@ private:
     void check_binary_size(std::uint64_t count, Scalar t) const {
         if (count > left() / scalar_size(t))
             error_at("truncated binary data: " + std::to_string(count) + " values of " + std::to_string(scalar_size(t)) +
-                     " bytes need " + byte_size_text(count > UINT64_MAX / 8 ? UINT64_MAX : count * scalar_size(t)) +
+                     " bytes need " + byte_size_text(count > UINT64_MAX / scalar_size(t) ? UINT64_MAX : count * scalar_size(t)) +
                      ", only " + byte_size_text(left()) + " left in the file");
     }
 
@@ -136,7 +136,7 @@ private:
 
     std::vector<float> read_binary(std::uint64_t count, Scalar t, bool finite_only) {
         check_binary_size(count, t);
-        auto out = convert_coords(path_, data_.data() + pos_, count, t, true, finite_only);
+        auto out = convert_coords(path_, data_.data() + pos_, count, t, true, finite_only, {pos_, {}});
         advance(count * scalar_size(t));
         return out;
     }

@@ -311,7 +311,8 @@ std::vector<float> ascii_array(const std::string& path, std::string_view text, s
         double v;
         if (!parse_double(tokens[i], v))
             fail(path, "offset " + std::to_string(at) + ": " + what + ": malformed number '" + std::string(tokens[i].substr(0, 40)) + "'");
-        out[i] = coords && finite_only ? to_float_checked(path, v, i) : narrow_to_float(v);
+        out[i] = coords && finite_only ? to_float_checked(path, v, i, "offset " + std::to_string(tokens[i].data() - text.data() + at) + ": ")
+                                       : narrow_to_float(v);
     }
     return out;
 }
@@ -322,13 +323,13 @@ std::vector<float> read_data_array(const VtuContext& c, const Tag& array, std::u
                                    const std::string& what, bool coords, bool keep_invalid) {
     const std::string at = "offset " + std::to_string(array.begin) + ": ";
     const auto type = vtu_type(array.get("type"));
-    if (!type) fail(c.path, at + "unsupported " + what + " type '" + array.get("type") + "', expected Int8..UInt64, Float32 or Float64");
+    if (!type) fail(c.path, at + "unsupported type '" + array.get("type") + "' for " + what + ", expected Int8..UInt64, Float32 or Float64");
     const std::uint64_t count = mul_checked(c.path, at + what, tuples, comps, "size");
     const std::size_t ts = scalar_size(*type);
     // the largest array a file of this size could hold even at zlib's best ratio (1032:1)
     if (count > (max_inflated_size(c.file.size()) + 1024) / ts)
         fail(c.path, at + what + ": NumberOfPoints=" + std::to_string(tuples) + " x " + std::to_string(comps) + " x " +
-                         std::to_string(ts) + " bytes need " + byte_size_text(count > UINT64_MAX / 8 ? UINT64_MAX : count * ts) +
+                         std::to_string(ts) + " bytes need " + byte_size_text(count > UINT64_MAX / ts ? UINT64_MAX : count * ts) +
                          ", more than a file of " + byte_size_text(c.file.size()) + " can hold even compressed");
     const std::uint64_t bytes = count * ts;
     const std::string format = array.get("format", "ascii");
@@ -348,7 +349,7 @@ std::vector<float> read_data_array(const VtuContext& c, const Tag& array, std::u
     } else {
         fail(c.path, at + "unknown DataArray format '" + format + "', expected ascii, binary or appended");
     }
-    if (coords) return convert_coords(c.path, raw.data(), count, *type, c.dec.big_endian(), !keep_invalid);
+    if (coords) return convert_coords(c.path, raw.data(), count, *type, c.dec.big_endian(), !keep_invalid, {SIZE_MAX, at + what});
     return convert_values(raw.data(), count, *type, c.dec.big_endian());
 }
 
