@@ -29,6 +29,9 @@ void require_file(const std::string& path) {
     const fs::file_status st = fs::status(path, ec);
     if (!fs::exists(st)) fail(path, "no such file");
     if (fs::is_directory(st)) fail(path, "is a directory, expected a file");
+    // a device such as /dev/zero never ends: only files and pipes are read
+    if (fs::is_character_file(st) || fs::is_block_file(st) || fs::is_socket(st))
+        fail(path, "is a device or socket, expected a file");
 }
 
 std::string read_file(const std::string& path) {
