@@ -51,7 +51,8 @@ std::vector<TestAttribute> round_trip_attributes(std::size_t n) {
 }  // namespace
 
 // Expected values below were read by an independent numpy reader of the same files (it parses
-// the headers and offsets by hand: struct + zlib + base64), not by this code.
+// the headers and offsets by hand: struct + zlib + base64), not by this code:
+// /usr/bin/python3 tests/attribute_oracle.py ../shared/data
 
 TEST_CASE("attributes of real frames: VTK SCALARS id and FIELD velocity", "[io][attributes]") {
     TRILEVEL_REQUIRE_SHARED_DATA(dir);
