@@ -85,7 +85,7 @@ struct ReconstructArgs {
         stats, hysteresis;
     std::string start, end;  // frame sequences: range of frame numbers
     int device = -1;
-    bool color_levels = false, quiet = false, skip_existing = false;
+    bool color_levels = false, quiet = false, skip_existing = false, drop_invalid = false;
     std::string normals;                  ///< "" (none), "gradient" or "area"
     std::vector<std::string> attributes;  ///< particle attributes to interpolate at the vertices
 };
@@ -150,7 +150,10 @@ void reconstruct_file(trilevel::Reconstructor& rec, const trilevel::Params& para
     const auto start = std::chrono::steady_clock::now();
     trilevel::ReadOptions read_options;
     read_options.attributes = a.attributes;
+    read_options.drop_invalid = a.drop_invalid;
     const trilevel::ParticleSet particles = trilevel::read_particles(input, read_options);
+    if (particles.dropped_invalid > 0)
+        std::fprintf(stderr, "warning: %s: dropped %zu particles with NaN/Inf coordinates\n", input.c_str(), particles.dropped_invalid);
     if (particles.size() == 0) throw trilevel::Error(input + ": holds no particles");
     const auto attributes = requested_attributes(input, particles, a.attributes);
     trilevel::Stats stats;
@@ -390,6 +393,7 @@ int run(int argc, char** argv) {
     rec->add_option("--start", ra.start, "Sequences: first frame number to process (inclusive)");
     rec->add_option("--end", ra.end, "Sequences: last frame number to process (inclusive)");
     rec->add_flag("--skip-existing", ra.skip_existing, "Sequences: skip frames whose outputs exist (resume a run)");
+    rec->add_flag("--drop-invalid", ra.drop_invalid, "Drop particles with NaN/Inf coordinates (with a warning) instead of failing");
 
     GenerateArgs ga;
     auto* gen = app.add_subcommand("generate", "Writes a test particle scene");

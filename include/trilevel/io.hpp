@@ -20,7 +20,12 @@ struct ParticleSet {
 
 /// What read_particles reads besides the positions.
 struct ReadOptions {
-    /// Attributes to read as well (VTK, VTU, BGEO); a name the file lacks is an Error.
+    /// Attributes to read as well; a name the file lacks is an Error listing the names it has.
+    /// VTK: POINT_DATA SCALARS/VECTORS/NORMALS and FIELD arrays of one tuple per point; VTU:
+    /// PointData arrays; BGEO: float, vector and int point attributes; PLY: a vertex property
+    /// `name`, or the triplet name_x/_y/_z (or namex/y/z). 1 or 3 components, any numeric type
+    /// (converted to float, values kept as stored: NaN is not checked). ParticleSet::attributes
+    /// follows this order; a name given twice is read once.
     std::vector<std::string> attributes;
     /// Drop particles with a NaN/Inf coordinate (counted in ParticleSet::dropped_invalid)
     /// instead of failing.

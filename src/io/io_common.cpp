@@ -17,8 +17,10 @@ namespace trilevel::io {
 void fail(const std::string& path, const std::string& what) {
     // quoted file content may hold anything: keep the message one printable line of sane length
     std::string msg = what.size() > 400 ? what.substr(0, 400) + "..." : what;
-    for (char& c : msg)
+    for (char& c : msg) {  // control bytes and (quoted binary) non-ASCII bytes would garble a terminal
         if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = ' ';
+        if (static_cast<unsigned char>(c) >= 0x80) c = '?';
+    }
     throw Error(path + ": " + msg);
 }
 
@@ -27,6 +29,9 @@ void require_file(const std::string& path) {
     const fs::file_status st = fs::status(path, ec);
     if (!fs::exists(st)) fail(path, "no such file");
     if (fs::is_directory(st)) fail(path, "is a directory, expected a file");
+    // a device such as /dev/zero never ends: only files and pipes are read
+    if (fs::is_character_file(st) || fs::is_block_file(st) || fs::is_socket(st))
+        fail(path, "is a device or socket, expected a file");
 }
 
 std::string read_file(const std::string& path) {
@@ -56,17 +61,44 @@ std::string extension_of(const std::string& path) {
     return ext;
 }
 
-void check_finite(const std::string& path, const std::vector<float>& xyz) {
-    for (std::size_t i = 0; i < xyz.size(); ++i)
-        if (!std::isfinite(xyz[i]))
-            fail(path, "particle " + std::to_string(i / 3) + ": non-finite coordinate (NaN or Inf)");
+std::string ArrayLocation::at(std::size_t value_index, std::size_t value_size) const {
+    if (base != SIZE_MAX) return "offset " + std::to_string(base + value_index * value_size) + ": ";
+    return label.empty() ? std::string() : label + ": ";
 }
 
-float to_float_checked(const std::string& path, double v, std::size_t value_index) {
+void check_finite(const std::string& path, const std::vector<float>& xyz, const ArrayLocation& where) {
+    for (std::size_t i = 0; i < xyz.size(); ++i)
+        if (!std::isfinite(xyz[i]))
+            fail(path, where.at(i, 4) + "particle " + std::to_string(i / 3) + ": non-finite coordinate (NaN or Inf)");
+}
+
+float to_float_checked(const std::string& path, double v, std::size_t value_index, const std::string& where) {
     if (!std::isfinite(v) || std::fabs(v) > std::numeric_limits<float>::max())
-        fail(path, "particle " + std::to_string(value_index / 3) +
+        fail(path, where + "particle " + std::to_string(value_index / 3) +
                        ": coordinate is not a finite float (NaN, Inf or out of range)");
     return static_cast<float>(v);
+}
+
+void missing_attribute(const std::string& path, const std::string& name, const std::vector<std::string>& available) {
+    std::string list;
+    for (const auto& a : available) list += (list.empty() ? "" : ", ") + a;
+    fail(path, "no point attribute '" + name + "'" + (list.empty() ? " (the file has none)" : " (the file has: " + list + ")"));
+}
+
+std::string byte_size_text(std::uint64_t bytes) {
+    static const char* units[] = {"bytes", "kB", "MB", "GB", "TB", "PB", "EB"};
+    double v = static_cast<double>(bytes);
+    int u = 0;
+    while (v >= 1000.0 && u < 6) { v /= 1000.0; ++u; }
+    char buf[32];
+    std::snprintf(buf, sizeof buf, u == 0 ? "%.0f %s" : "%.3g %s", v, units[u]);
+    return buf;
+}
+
+std::uint64_t mul_checked(const std::string& path, const std::string& where, std::uint64_t a, std::uint64_t b,
+                          const char* what) {
+    if (a != 0 && b > UINT64_MAX / a) fail(path, where + ": " + what + " overflows");
+    return a * b;
 }
 
 std::size_t scalar_size(Scalar t) {
@@ -94,16 +126,28 @@ double load_scalar(const char* p, Scalar t, bool big) {
     return 0.0;
 }
 
+std::vector<float> convert_values(const char* p, std::size_t count, Scalar t, bool big) {
+    std::vector<float> out(count);
+    const std::size_t size = scalar_size(t);
+    if (t == Scalar::F32) {
+        for (std::size_t i = 0; i < count; ++i) out[i] = load<float>(p + i * 4, big);
+    } else {
+        for (std::size_t i = 0; i < count; ++i) out[i] = narrow_to_float(load_scalar(p + i * size, t, big));
+    }
+    return out;
+}
+
 std::vector<float> convert_coords(const std::string& path, const char* p, std::size_t count, Scalar t,
-                                  bool big) {
+                                  bool big, bool finite_only, const ArrayLocation& where) {
+    if (!finite_only) return convert_values(p, count, t, big);  // the caller drops NaN/Inf particles
     std::vector<float> out(count);
     const std::size_t size = scalar_size(t);
     if (t == Scalar::F32) {  // the common case: no double round trip
         for (std::size_t i = 0; i < count; ++i) out[i] = load<float>(p + i * 4, big);
-        check_finite(path, out);
+        check_finite(path, out, where);
         return out;
     }
-    for (std::size_t i = 0; i < count; ++i) out[i] = to_float_checked(path, load_scalar(p + i * size, t, big), i);
+    for (std::size_t i = 0; i < count; ++i) out[i] = to_float_checked(path, load_scalar(p + i * size, t, big), i, where.at(i, size));
     return out;
 }
 
