@@ -48,8 +48,20 @@ public:
     /// Bytes of device buffers allocated since reset_budget (an upper bound of what is held).
     std::uint64_t allocated_bytes() const { return allocated_; }
 
+    /// The pipeline stage now running, named in OpenCL errors ("binning", "scalar_field", ...).
+    /// Leaving a stage in which an injected fault was armed but did not fire fires it there.
+    void set_stage(const char* stage);
+    const std::string& stage() const { return stage_; }
+    /// Test hook (TRILEVEL_FAULT=stage): the first launch, wait or allocation in `stage` fails as
+    /// if the device had returned CL_OUT_OF_RESOURCES. Empty: no fault.
+    void inject_fault(const std::string& stage) { fault_stage_ = stage; }
+    /// After a failed reconstruction: waits for what is still queued (ignoring errors) and drops the
+    /// pending events and timings, so the next reconstruction starts from a clean queue.
+    void recover() noexcept;
+
 private:
     void build_program();
+    void maybe_fail(const char* call);
 
     DeviceInfo info_;
     cl::Device device_;
@@ -62,9 +74,16 @@ private:
     std::size_t work_group_ = 0;
     std::size_t max_candidates_ = 2048;
     std::uint64_t budget_ = 0, allocated_ = 0;
+    std::string stage_, fault_stage_;
 };
+
+/// Device buffers of every runtime in the process that are allocated and not yet released (counted
+/// by the OpenCL destructor callback): a leak check for long runs.
+std::int64_t live_device_buffers();
 
 /// Human-readable name of an OpenCL error code (CL_OUT_OF_RESOURCES, ...).
 std::string cl_error_name(cl_int code);
+/// What a user can do about an error code, as "; ..." (empty when there is nothing to say).
+std::string cl_error_advice(cl_int code);
 
 }  // namespace trilevel
