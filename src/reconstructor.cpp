@@ -262,13 +262,18 @@ std::uint64_t host_budget(const Params& p) {
     return avail;  // 0: unknown, no check
 }
 
-std::string gb(double bytes) { return fmt(bytes / 1e9) + " GB"; }
+std::string human_bytes(double bytes) {
+    const char* unit[] = {"B", "KB", "MB", "GB", "TB"};
+    int u = 0;
+    while (bytes >= 1000 && u < 4) bytes /= 1000, ++u;
+    return fmt(bytes) + " " + unit[u];
+}
 
 /// Fails before a large host allocation that would not fit the budget (DESIGN §4).
 void check_host(double bytes, double budget, const std::string& what) {
     if (budget > 0 && bytes > budget)
-        throw Error(what + " needs ~" + gb(bytes) + " of host memory (budget " + gb(budget) +
-                    (budget > 0 ? ", --memory-limit or available RAM" : "") + "): use a larger cell (e.g. --cell 2) or a smaller domain");
+        throw Error(what + " needs ~" + human_bytes(bytes) + " of host memory, over the budget of " + human_bytes(budget) +
+                    " (--memory-limit or the available RAM); use a larger cell or a smaller domain");
 }
 
 /// Adds the counts and times of one group's reconstruction to the frame's (split domains).
