@@ -262,7 +262,7 @@ std::string cl_error_advice(cl_int code) {
         case CL_OUT_OF_RESOURCES:
         case CL_MEM_OBJECT_ALLOCATION_FAILURE:
         case CL_OUT_OF_HOST_MEMORY:
-            return "; the device ran out of memory or resources: use a larger cell, a smaller domain or a lower --memory-limit";
+            return "; the device ran out of memory or resources: use a larger cell or a smaller domain";
         case CL_DEVICE_NOT_AVAILABLE:
         case -9999:  // NVIDIA: illegal address, the device is lost
             return "; the device was lost or is busy: check the driver, or pick another one with --device";

@@ -227,6 +227,7 @@ std::uint64_t peak_rss_bytes() {
 struct Reconstructor::Impl {
     explicit Impl(int device) : rt(device) {}
     OpenCLRuntime rt;
+    float user_radius = 0.0f;  ///< the radius as given, for messages (the pipeline may run scaled)
     Mesh frame(const float* xyz, std::size_t n, const Params& p, Stats& s);
     Mesh domain(const float* xyz, std::size_t n, const Params& p, Stats& s);
     Mesh run(const float* xyz, std::size_t n, const Params& p, const Grid& g, Stats& s);
@@ -320,6 +321,7 @@ void append(Mesh& into, Mesh&& m) {
 Mesh Reconstructor::Impl::frame(const float* xyz, std::size_t n, const Params& p, Stats& s) {
     const Bounds b = bounds_of(xyz, n);
     validate_against(p, b);
+    user_radius = p.particle_radius;
     const int k = length_scale_exponent(p.particle_radius);
     if (k == 0) return domain(xyz, n, p, s);
     check_host(double(n) * 12, double(host_budget(p)), "a scaled copy of " + std::to_string(n) + " particles");
@@ -383,7 +385,7 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     // large, or a pile of particles, that would run for hours instead of failing.
     const double rest = std::pow(0.5 * p.kernel_radius, 3.0);
     if (double(bins.pair_load) > std::max(double(1u << 28), 64.0 * rest * double(n)))
-        throw Error("particle radius " + fmt(p.particle_radius) + ": on average each particle has " +
+        throw Error("particle radius " + fmt(user_radius) + ": on average each particle has " +
                     fmt(double(bins.pair_load) / double(n)) + " others within one kernel radius (about " + fmt(rest) +
                     " at a rest spacing of 2r), too many to sum; the radius is probably too large for these particles");
     timer.stage("binning");
