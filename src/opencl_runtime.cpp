@@ -89,9 +89,13 @@ int choose_device(int requested, const std::vector<cl::Device>& devices) {
     return 0;
 }
 
-std::atomic<std::int64_t> g_live_buffers{0};
+std::atomic<std::int64_t> g_live_buffers{0}, g_live_bytes{0};
 
-void CL_CALLBACK buffer_released(cl_mem, void*) { g_live_buffers.fetch_sub(1, std::memory_order_relaxed); }
+void CL_CALLBACK buffer_released(cl_mem, void* bytes) {
+    g_live_buffers.fetch_sub(1, std::memory_order_relaxed);
+    g_live_bytes.fetch_sub(std::int64_t(reinterpret_cast<std::uintptr_t>(bytes)), std::memory_order_relaxed);
+}
+
 
 std::string mib(std::uint64_t bytes) {
     char buf[32];
@@ -188,6 +192,18 @@ void OpenCLRuntime::recover() noexcept {
     fault_stage_.clear();
 }
 
+std::uint64_t available_ram() {
+    std::uint64_t avail = 0;
+    if (std::FILE* f = std::fopen("/proc/meminfo", "r")) {
+        char line[256];
+        unsigned long long kb = 0;
+        while (std::fgets(line, sizeof(line), f))
+            if (std::sscanf(line, "MemAvailable: %llu kB", &kb) == 1) avail = std::uint64_t(kb) * 1024;
+        std::fclose(f);
+    }
+    return avail;
+}
+
 std::int64_t live_device_buffers() { return g_live_buffers.load(std::memory_order_relaxed); }
 
 void OpenCLRuntime::run(const std::string& name, std::size_t global) {
@@ -238,13 +254,24 @@ cl::Buffer OpenCLRuntime::buffer(std::size_t bytes, const char* what, cl_mem_fla
         throw Error(std::string("the ") + what + " would bring device memory to " + mib(allocated_ + bytes) +
                     ", over the budget of " + mib(budget_) +
                     " (--memory-limit or the device's memory); use a larger cell or a smaller domain");
+    // A CPU device's buffers are host memory: past the RAM that was available, the kernel's OOM
+    // killer would end the process instead of this error.
+    const std::int64_t live = g_live_bytes.load(std::memory_order_relaxed);
+    if (ram_room_ && std::uint64_t(std::max<std::int64_t>(0, live - live_at_reset_)) + bytes > ram_room_)
+        throw Error(std::string("the ") + what + " (" + mib(bytes) + ") would bring the device buffers of this CPU device to " +
+                    mib(std::uint64_t(std::max<std::int64_t>(0, live - live_at_reset_)) + bytes) + ", over the " +
+                    mib(ram_room_) + " of RAM available; use a larger cell or a smaller domain");
     maybe_fail("clCreateBuffer");
     allocated_ += bytes;
     try {
         cl::Buffer b(context_, flags, bytes);
         g_live_buffers.fetch_add(1, std::memory_order_relaxed);
-        if (clSetMemObjectDestructorCallback(b(), buffer_released, nullptr) != CL_SUCCESS)
-            g_live_buffers.fetch_sub(1, std::memory_order_relaxed);  // not counted, rather than a false leak
+        g_live_bytes.fetch_add(std::int64_t(bytes), std::memory_order_relaxed);
+        if (clSetMemObjectDestructorCallback(b(), buffer_released, reinterpret_cast<void*>(std::uintptr_t(bytes))) !=
+            CL_SUCCESS) {  // not counted, rather than a false leak
+            g_live_buffers.fetch_sub(1, std::memory_order_relaxed);
+            g_live_bytes.fetch_sub(std::int64_t(bytes), std::memory_order_relaxed);
+        }
         return b;
     } catch (const cl::Error& e) {
         throw Error(std::string("cannot allocate the ") + what + " (" + mib(bytes) +
@@ -254,6 +281,8 @@ cl::Buffer OpenCLRuntime::buffer(std::size_t bytes, const char* what, cl_mem_fla
 
 void OpenCLRuntime::reset_budget(std::uint64_t limit) {
     budget_ = limit ? std::min<std::uint64_t>(limit, info_.global_memory) : info_.global_memory;
+    ram_room_ = info_.type == "CPU" ? available_ram() : 0;
+    live_at_reset_ = g_live_bytes.load(std::memory_order_relaxed);
     allocated_ = 0;
 }
 

@@ -251,14 +251,7 @@ struct UnmapOnFailure {
 
 /// Host memory a reconstruction may use: the memory limit, else what the kernel says is available.
 std::uint64_t host_budget(const Params& p) {
-    std::uint64_t avail = 0;
-    if (std::FILE* f = std::fopen("/proc/meminfo", "r")) {
-        char line[256];
-        unsigned long long kb = 0;
-        while (std::fgets(line, sizeof(line), f))
-            if (std::sscanf(line, "MemAvailable: %llu kB", &kb) == 1) avail = std::uint64_t(kb) * 1024;
-        std::fclose(f);
-    }
+    const std::uint64_t avail = available_ram();
     if (p.memory_limit_bytes) return avail ? std::min(avail, p.memory_limit_bytes) : p.memory_limit_bytes;
     return avail;  // 0: unknown, no check
 }
