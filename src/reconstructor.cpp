@@ -229,7 +229,7 @@ struct Reconstructor::Impl {
     OpenCLRuntime rt;
     float user_radius = 0.0f;  ///< the radius as given, for messages (the pipeline may run scaled)
     Mesh frame(const float* xyz, std::size_t n, const Params& p, Stats& s);
-    Mesh domain(const float* xyz, std::size_t n, const Params& p, Stats& s);
+    Mesh domain(const float* xyz, std::size_t n, const Params& p, Stats& s, const Bounds& b);
     Mesh run(const float* xyz, std::size_t n, const Params& p, const Grid& g, Stats& s);
 };
 
@@ -316,22 +316,22 @@ Mesh Reconstructor::Impl::frame(const float* xyz, std::size_t n, const Params& p
     validate_against(p, b);
     user_radius = p.particle_radius;
     const int k = length_scale_exponent(p.particle_radius);
-    if (k == 0) return domain(xyz, n, p, s);
+    if (k == 0) return domain(xyz, n, p, s, b);
     check_host(double(n) * 12, double(host_budget(p)), "a scaled copy of " + std::to_string(n) + " particles");
     std::vector<float> scaled(xyz, xyz + 3 * n);
     for (float& v : scaled) v = std::ldexp(v, k);
     Params q = p;
     q.particle_radius = std::ldexp(p.particle_radius, k);
-    Mesh m = domain(scaled.data(), n, q, s);
+    Mesh m = domain(scaled.data(), n, q, s, bounds_of(scaled.data(), n));
     for (float& v : m.positions) v = std::ldexp(v, -k);
     return m;
 }
 
 /// One lattice when the particles fit it; otherwise groups of far-apart clusters, each on a
 /// lattice of its own, their meshes concatenated (domain_split.hpp).
-Mesh Reconstructor::Impl::domain(const float* xyz, std::size_t n, const Params& p, Stats& s) {
+Mesh Reconstructor::Impl::domain(const float* xyz, std::size_t n, const Params& p, Stats& s, const Bounds& b) {
     const double capacity = lattice_capacity_steps();
-    const Grid g = make_grid(p, bounds_of(xyz, n));
+    const Grid g = make_grid(p, b);
     if (g.extent_steps <= capacity) return run(xyz, n, p, g, s);
 
     const double R = double(p.kernel_radius) * p.particle_radius, edge = g.coarse_edge;

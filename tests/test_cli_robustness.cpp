@@ -223,7 +223,14 @@ TEST_CASE("CLI: a process killed while writing leaves the previous output intact
                 fs::remove(work / name);
             }
         } else {
-            CHECK(left.empty());
+            // Only a SIGKILL in the microseconds between linking the finished file and renaming it
+            // can leave a temporary here, and that one is complete.
+            for (const auto& name : left) {
+                CHECK(k.signal == SIGKILL);
+                CHECK(name.rfind(".mesh.obj.tmp." + std::to_string(pid) + ".", 0) == 0);
+                CHECK(slurp((work / name).string()) == complete);
+                fs::remove(work / name);
+            }
         }
     }
     std::printf("kills that landed while the output was being written: %d of %zu\n", mid_write, kills.size());
