@@ -206,9 +206,12 @@ AtomicWriter::AtomicWriter(const std::string& path) : path_(path) {
     }
 #endif
     if (!file_) {
+        publish_temp_name(true);  // before the file exists: a signal right after fopen still removes it
         file_ = std::fopen(temp_.c_str(), "wb");
-        if (!file_) fail(path, std::string("cannot create output file: ") + std::strerror(errno));
-        publish_temp_name(true);
+        if (!file_) {
+            publish_temp_name(false);
+            fail(path, std::string("cannot create output file: ") + std::strerror(errno));
+        }
     }
     buffer_.reserve(std::size_t(4) << 20);
 }
@@ -245,10 +248,10 @@ void AtomicWriter::commit() {
     if (bad) fail(path_, std::string("write failed: ") + std::strerror(errno));
     if (unnamed_) {  // give the finished file its temporary name, then rename it over the target
         const std::string self = "/proc/self/fd/" + std::to_string(::fileno(file_));
+        publish_temp_name(true);  // before the name exists, as above
         if (::linkat(AT_FDCWD, self.c_str(), AT_FDCWD, temp_.c_str(), AT_SYMLINK_FOLLOW) != 0)
             fail(path_, std::string("cannot link the finished temporary file: ") + std::strerror(errno));
         unnamed_ = false;  // from here on temp_ names a file, removed if anything below fails
-        publish_temp_name(true);
     }
     const bool close_bad = std::fclose(file_) != 0;
     file_ = nullptr;
