@@ -430,6 +430,7 @@ int run(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
+    trilevel::io::remove_temporaries_on_signals();  // Ctrl-C never leaves a temporary output behind
     try {
         return run(argc, argv);
     } catch (const UsageError& e) {

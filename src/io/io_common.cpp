@@ -8,6 +8,11 @@
 #include <filesystem>
 #include <limits>
 
+#include <csignal>
+#include <cstdlib>
+#include <cstring>
+
+#include <fcntl.h>
 #include <unistd.h>
 
 namespace fs = std::filesystem;
@@ -183,6 +188,38 @@ std::string upper(std::string_view s) {
     return u;
 }
 
+namespace {
+
+// Named temporaries of live writers, for the signal handler: it may only read atomics and call
+// unlink (async-signal-safe). Each slot points at the writer's own temp_ string.
+constexpr int kTempSlots = 64;
+std::atomic<const char*> g_temp_names[kTempSlots];
+
+void remove_temporaries_and_die(int sig) {
+    for (auto& slot : g_temp_names)
+        if (const char* name = slot.load()) ::unlink(name);
+    std::signal(sig, SIG_DFL);
+    std::raise(sig);
+}
+
+}  // namespace
+
+void remove_temporaries_on_signals() {
+    for (int sig : {SIGINT, SIGTERM, SIGHUP}) std::signal(sig, remove_temporaries_and_die);
+}
+
+void AtomicWriter::publish_temp_name(bool on) {
+    if (on) {
+        for (int i = 0; i < kTempSlots && slot_ < 0; ++i) {
+            const char* expected = nullptr;
+            if (g_temp_names[i].compare_exchange_strong(expected, temp_.c_str())) slot_ = i;
+        }
+    } else if (slot_ >= 0) {
+        g_temp_names[slot_].store(nullptr);
+        slot_ = -1;
+    }
+}
+
 AtomicWriter::AtomicWriter(const std::string& path) : path_(path) {
     const fs::path target(path);
     if (target.filename().empty()) fail(path, "output path names no file");
@@ -199,17 +236,37 @@ AtomicWriter::AtomicWriter(const std::string& path) : path_(path) {
     name += '.';
     name += std::to_string(counter++);
     temp_ = (dir / name).string();
-    file_ = std::fopen(temp_.c_str(), "wb");
-    if (!file_) fail(path, std::string("cannot create output file: ") + std::strerror(errno));
+#ifdef O_TMPFILE
+    // Unnamed until commit; linking it needs /proc/self/fd (linkat with AT_EMPTY_PATH needs a privilege).
+    // TRILEVEL_NO_TMPFILE=1 (tests) takes the named-temporary path file systems without O_TMPFILE take.
+    const char* no_tmpfile = std::getenv("TRILEVEL_NO_TMPFILE");
+    if (!(no_tmpfile && *no_tmpfile == '1') && ::access("/proc/self/fd", X_OK) == 0) {
+        const int fd = ::open(dir.empty() ? "." : dir.c_str(), O_TMPFILE | O_WRONLY | O_CLOEXEC, 0666);
+        if (fd >= 0) {
+            file_ = ::fdopen(fd, "wb");
+            if (!file_) ::close(fd);
+            unnamed_ = file_ != nullptr;
+        }
+    }
+#endif
+    if (!file_) {
+        publish_temp_name(true);  // before the file exists: a signal right after fopen still removes it
+        file_ = std::fopen(temp_.c_str(), "wb");
+        if (!file_) {
+            publish_temp_name(false);
+            fail(path, std::string("cannot create output file: ") + std::strerror(errno));
+        }
+    }
     buffer_.reserve(std::size_t(4) << 20);
 }
 
 AtomicWriter::~AtomicWriter() {
     if (file_) std::fclose(file_);
-    if (!committed_) {
+    if (!committed_ && !unnamed_) {
         std::error_code ec;
         fs::remove(temp_, ec);
     }
+    publish_temp_name(false);
 }
 
 void AtomicWriter::flush() {
@@ -232,13 +289,22 @@ void AtomicWriter::write(const void* data, std::size_t n) {
 void AtomicWriter::commit() {
     flush();
     const bool bad = std::fflush(file_) != 0 || std::ferror(file_);
+    if (bad) fail(path_, std::string("write failed: ") + std::strerror(errno));
+    if (unnamed_) {  // give the finished file its temporary name, then rename it over the target
+        const std::string self = "/proc/self/fd/" + std::to_string(::fileno(file_));
+        publish_temp_name(true);  // before the name exists, as above
+        if (::linkat(AT_FDCWD, self.c_str(), AT_FDCWD, temp_.c_str(), AT_SYMLINK_FOLLOW) != 0)
+            fail(path_, std::string("cannot link the finished temporary file: ") + std::strerror(errno));
+        unnamed_ = false;  // from here on temp_ names a file, removed if anything below fails
+    }
     const bool close_bad = std::fclose(file_) != 0;
     file_ = nullptr;
-    if (bad || close_bad) fail(path_, std::string("write failed: ") + std::strerror(errno));
+    if (close_bad) fail(path_, std::string("write failed: ") + std::strerror(errno));
     std::error_code ec;
     fs::rename(temp_, path_, ec);
     if (ec) fail(path_, "cannot rename temporary file into place: " + ec.message());
     committed_ = true;
+    publish_temp_name(false);
 }
 
 }  // namespace trilevel::io

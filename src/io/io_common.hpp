@@ -129,6 +129,12 @@ std::string upper(std::string_view s);
 
 /// A file written through a temporary in the target directory and renamed on commit();
 /// destroyed uncommitted, it removes the temporary. Writes are buffered in large blocks.
+///
+/// The temporary is an unnamed file (O_TMPFILE) where the file system allows it: a process killed
+/// mid-write, even by SIGKILL, leaves nothing behind. On commit it is linked as `.NAME.tmp.PID.N`
+/// and renamed over NAME at once. Elsewhere the temporary is that named file from the start; a
+/// SIGKILL may then leave it behind (never under the target's name), and SIGINT/SIGTERM remove it
+/// when the program called remove_temporaries_on_signals().
 class AtomicWriter {
 public:
     explicit AtomicWriter(const std::string& path);
@@ -143,11 +149,18 @@ public:
 
 private:
     void flush();
+    void publish_temp_name(bool on);
     std::string path_, temp_;
     std::FILE* file_ = nullptr;
+    bool unnamed_ = false;  // O_TMPFILE: temp_ names nothing until commit() links it
+    int slot_ = -1;         // in the signal-cleanup registry
     std::vector<char> buffer_;
     bool committed_ = false;
 };
+
+/// Installs SIGINT, SIGTERM and SIGHUP handlers that remove the named temporaries of live
+/// AtomicWriters and then die of the signal as before (for programs, not the library).
+void remove_temporaries_on_signals();
 
 /// Writes `count` floats in the given byte order (chunked conversion for big-endian).
 void write_floats(AtomicWriter& out, const float* v, std::size_t count, bool big_endian);

@@ -96,7 +96,7 @@ ParticleFlags color_field(const std::vector<glm::vec3>& x, float r, float R) {
         int count = 0;
         grid.for_each_neighbour(x[i], [&](int j, glm::vec3 xj, double d2) {
             if (std::size_t(j) == i) return;
-            ++count;
+            if (d2 > double(constants::kSameSpot) * constants::kSameSpot * R * R) ++count;  // else the same spot
             c += poly6(d2, R);
             g += poly6_gradient_factor(d2, R) * glm::dvec3(x[i] - xj);
         });
