@@ -430,8 +430,19 @@ class ReadmeTest(unittest.TestCase):
             finally:
                 os.chdir(cwd)
             v, t = trilevel.read_mesh(os.path.join(tmp, "surface.ply"))
+            sv, st, normals, attributes = trilevel.read_mesh(os.path.join(tmp, "shaded.ply"), return_normals=True,
+                                                             return_attributes=True)
         assert_closed(self, v, t)
-        self.assertEqual(scope["stats"]["parameters"]["mode"], "uniform")
+        assert_bit_equal(self, sv, v)
+        assert_bit_equal(self, st, t)
+        self.assertEqual((normals.shape, list(attributes), attributes["velocity"].shape), (v.shape, ["velocity"], v.shape))
+        # The drop's vertices move down at 2, the pool's rest; in between only where both are near.
+        vy = attributes["velocity"][:, 1]
+        self.assertTrue(np.all(attributes["velocity"][:, [0, 2]] == 0))
+        self.assertEqual((vy.min(), vy.max()), (-2, 0))
+        self.assertGreater(np.mean((vy == -2) | (vy == 0)), 0.99)
+        self.assertEqual(scope["stats"]["parameters"]["level_hysteresis"], np.float32(0.2))
+        self.assertGreater(scope["stats"]["level_flips"]["compared"], 0)
         self.assertIn("# %d triangles, closed: True" % len(t), code)  # the output the README shows
 
 
