@@ -172,3 +172,23 @@ TEST_CASE("a frame fits a memory limit of its own device_memory_bytes after larg
     REQUIRE(same_mesh(rec.reconstruct(small.positions.data(), small.size(), limited, &st), expected));
     CHECK(st.device_memory_bytes == need.device_memory_bytes);
 }
+
+TEST_CASE("every memory limit below a frame's need stops it cleanly, wherever the budget runs out", "[pool][memory]") {
+    const float r = 0.025f;
+    const ParticleSet s = generate_scene("sphere", r, 6);
+    Reconstructor rec;
+    Stats need;
+    const Mesh expected = rec.reconstruct(s.positions.data(), s.size(), with_radius(r), &need);
+    // Steps of 1/64 of the need stop the frame in each stage, some with work still queued (whose
+    // host data must outlive the error: the writes block).
+    for (int k = 1; k < 64; ++k) {
+        Params p = with_radius(r);
+        p.memory_limit_bytes = std::max<std::uint64_t>(4096, need.device_memory_bytes * std::uint64_t(k) / 64);
+        INFO("limit " << p.memory_limit_bytes << " of " << need.device_memory_bytes);
+        REQUIRE_THROWS_WITH(rec.reconstruct(s.positions.data(), s.size(), p), Catch::Contains("over the budget"));
+    }
+    Params p = with_radius(r);
+    p.memory_limit_bytes = need.device_memory_bytes;
+    rec.reset_history();
+    REQUIRE(same_mesh(rec.reconstruct(s.positions.data(), s.size(), p), expected));
+}
