@@ -153,7 +153,7 @@ TEST_CASE("a Reconstructor reused across scenes of every size gives each scene's
     }
 }
 
-TEST_CASE("a frame fits a memory limit of its own device_memory_bytes after larger frames", "[pool][memory]") {
+TEST_CASE("a frame's device buffers fit a memory limit of its own device_memory_bytes after larger frames", "[pool][memory]") {
     const float r = 0.025f;
     const ParticleSet big = generate_scene("dam-break", r, 4), small = generate_scene("sphere", r, 4);
     Stats need;
