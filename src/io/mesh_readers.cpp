@@ -2,6 +2,7 @@
 // write_mesh writes and common variants of it (polygons are fan-triangulated).
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "io/io_common.hpp"
 #include "io/particle_formats.hpp"
@@ -11,6 +12,13 @@
 namespace trilevel {
 namespace io {
 namespace {
+
+/// A value read from the file, short enough for a message (1e300 too).
+std::string number_text(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.10g", v);
+    return buf;
+}
 
 void add_polygon(const std::string& path, const std::string& where, const std::vector<std::int64_t>& idx, Mesh& mesh) {
     for (std::int64_t v : idx)
@@ -31,8 +39,12 @@ void read_ply_vertices(const std::string& path, PlyValueReader& r, const PlyElem
             const int c = p.name == "x" ? 0 : p.name == "y" ? 1 : p.name == "z" ? 2 : -1;
             if (p.list_count || (c < 0 && p.name != "level")) { r.skip(p); continue; }
             const double v = r.next(p.type);
-            if (c >= 0) xyz[c] = static_cast<float>(v);
-            else mesh.vertex_level.push_back(static_cast<std::uint8_t>(v));
+            if (c >= 0) {
+                xyz[c] = to_float_checked(path, v, mesh.positions.size() + c);
+            } else {
+                if (!(v >= 0 && v <= 255)) fail(path, r.where() + ": vertex level " + number_text(v) + " out of range 0..255");
+                mesh.vertex_level.push_back(static_cast<std::uint8_t>(v));
+            }
         }
         mesh.positions.insert(mesh.positions.end(), xyz, xyz + 3);
     }
@@ -40,12 +52,17 @@ void read_ply_vertices(const std::string& path, PlyValueReader& r, const PlyElem
 
 void read_ply_faces(const std::string& path, PlyValueReader& r, const PlyElement& e, Mesh& mesh) {
     std::vector<std::int64_t> idx;
-    for (std::uint64_t i = 0; i < e.count; ++i)
+    for (std::uint64_t i = 0; !e.props.empty() && i < e.count; ++i)
         for (const auto& p : e.props) {
             if (!p.list_count || (p.name != "vertex_indices" && p.name != "vertex_index")) { r.skip(p); continue; }
             const std::string where = r.where();
             idx.resize(r.list_length(*p.list_count));
-            for (auto& v : idx) v = static_cast<std::int64_t>(r.next(p.type));
+            for (auto& v : idx) {
+                const double x = r.next(p.type);  // range-checked before the cast: a double may hold anything
+                if (!(x >= 0 && x < static_cast<double>(mesh.vertex_count())))
+                    fail(path, where + ": vertex index " + number_text(x) + " out of range");
+                v = static_cast<std::int64_t>(x);
+            }
             add_polygon(path, where, idx, mesh);
         }
 }
@@ -68,6 +85,8 @@ std::int64_t obj_index(const std::string& path, std::size_t line, std::string_vi
     double v;
     if (!parse_double(tok, v) || v == 0 || v != std::floor(v))
         fail(path, "line " + std::to_string(line) + ": bad face index '" + std::string(tok) + "'");
+    if (std::fabs(v) > static_cast<double>(nv))  // before the cast, which a huge value would overflow
+        fail(path, "line " + std::to_string(line) + ": face index '" + std::string(tok) + "' out of range");
     return v > 0 ? static_cast<std::int64_t>(v) - 1 : static_cast<std::int64_t>(nv) + static_cast<std::int64_t>(v);
 }
 
