@@ -76,8 +76,11 @@ public:
         if (binary) {
             check_binary_size(count, t);
             std::vector<std::int64_t> out(count);
-            for (std::uint64_t i = 0; i < count; ++i)
-                out[i] = static_cast<std::int64_t>(load_scalar(data_.data() + pos_ + i * scalar_size(t), t, true));
+            for (std::uint64_t i = 0; i < count; ++i) {
+                const double v = load_scalar(data_.data() + pos_ + i * scalar_size(t), t, true);
+                if (!is_int64(v)) error_at("integer value is not whole or out of range");
+                out[i] = static_cast<std::int64_t>(v);
+            }
             pos_ += count * scalar_size(t);
             return out;
         }
@@ -88,13 +91,17 @@ public:
             const std::string_view tok = next_token();
             double v;
             if (tok.empty()) error("truncated ASCII data: found " + std::to_string(i) + " of " + std::to_string(count) + " values");
-            if (!parse_double(tok, v) || v != std::floor(v)) error("malformed integer '" + std::string(tok.substr(0, 40)) + "'");
+            if (!parse_double(tok, v)) error("malformed integer '" + std::string(tok.substr(0, 40)) + "'");
+            if (!is_int64(v)) error("integer '" + std::string(tok.substr(0, 40)) + "' is not whole or out of range");
             out[i] = static_cast<std::int64_t>(v);
         }
         return out;
     }
 
 private:
+    /// A whole number that an int64 holds (checked before the cast, which would overflow).
+    static bool is_int64(double v) { return v == std::floor(v) && v >= -0x1p63 && v < 0x1p63; }
+
     void check_binary_size(std::uint64_t count, Scalar t) const {
         const std::uint64_t left = data_.size() - std::min<std::size_t>(pos_, data_.size());
         if (count > left / scalar_size(t))
