@@ -1,7 +1,7 @@
 // One libFuzzer target per reader: TRILEVEL_FUZZ_FORMAT names the particle format ("vtk", "vtu",
-// "bgeo", "ply", "xyz") or "mesh" for read_mesh (PLY, OBJ or legacy VTK, told apart by the first
-// bytes). The input is the whole file, read from memory. trilevel::Error is the clean rejection;
-// anything else is a finding: a crash, a sanitizer report, another exception (it escapes and
+// "bgeo", "ply", "xyz": the format's reader as read_particles calls it) or "mesh" for read_mesh
+// (PLY, OBJ or legacy VTK, told apart by the first bytes). The input is the whole file, in memory.
+// trilevel::Error is the clean rejection; anything else is a finding: a crash, a sanitizer report, another exception (it escapes and
 // aborts), a leak, a timeout, too much memory (run_fuzz.sh sets the limits), or a result that
 // breaks what the readers promise (checked below, failing with abort()).
 #include <cmath>
@@ -40,6 +40,17 @@ void check_mesh(const trilevel::Mesh& mesh) {
     if (!mesh.vertex_level.empty() && mesh.vertex_level.size() != mesh.vertex_count()) broken("level count");
 }
 
+/// The particle reader read_particles picks for the format (positions only: attributes are off).
+std::vector<float> read_points(const std::string& format, const std::string& path, const std::string& data) {
+    using namespace trilevel::io;
+    if (format == "vtk") return read_vtk_points(path, data);
+    if (format == "vtu") return read_vtu_points(path, data);
+    if (format == "bgeo") return read_bgeo_points(path, data);
+    if (format == "ply") return read_ply_points(path, data);
+    if (format == "xyz") return read_xyz_points(path, data);
+    broken("unknown TRILEVEL_FUZZ_FORMAT");
+}
+
 /// The reader read_mesh would pick for a file holding `data`: the fuzzer steers it by the magic.
 std::string mesh_extension(const std::string& data) {
     if (data.compare(0, 3, "ply") == 0) return "ply";
@@ -57,8 +68,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* bytes, std::size_t siz
             const std::string ext = mesh_extension(data);
             check_mesh(trilevel::io::read_mesh_from_memory(ext, "fuzz." + ext, data));
         } else {
-            const auto set = trilevel::io::read_particles_from_memory(format, "fuzz." + format, data, {});
-            check_positions(set.positions);
+            check_positions(read_points(format, "fuzz." + format, data));
         }
     } catch (const trilevel::Error& e) {
         // a clean rejection, which must be one line naming the file

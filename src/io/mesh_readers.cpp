@@ -122,27 +122,22 @@ Mesh read_obj_mesh(const std::string& path, const std::string& data) {
 }  // namespace
 }  // namespace io
 
-namespace {
-void check_mesh_extension(const std::string& ext, const std::string& path) {
-    if (ext != "ply" && ext != "obj" && ext != "vtk")
-        io::fail(path, "unknown mesh file extension '" + ext + "', expected .ply, .obj or .vtk");
-}
-}  // namespace
-
-Mesh io::read_mesh_from_memory(const std::string& ext, const std::string& path, const std::string& data) {
-    check_mesh_extension(ext, path);
-    Mesh mesh = ext == "ply" ? read_ply_mesh(path, data) : ext == "obj" ? read_obj_mesh(path, data) : read_vtk_mesh(path, data);
-    if (!mesh.vertex_level.empty() && mesh.vertex_level.size() != mesh.vertex_count())
-        fail(path, "vertex level count does not match the vertex count");
-    return mesh;
-}
-
 Mesh read_mesh(const std::string& path) {
     using namespace io;
     require_file(path);  // a missing file is reported as such, whatever its name
     const std::string ext = extension_of(path);
-    check_mesh_extension(ext, path);  // before the file is read
-    return read_mesh_from_memory(ext, path, read_file(path));
+    if (ext != "ply" && ext != "obj" && ext != "vtk")
+        fail(path, "unknown mesh file extension '" + ext + "', expected .ply, .obj or .vtk");
+    const std::string data = read_file(path);
+    return read_mesh_from_memory(ext, path, data);
+}
+
+/// `ext` is ply, obj or vtk: read_mesh has checked it.
+Mesh io::read_mesh_from_memory(const std::string& ext, const std::string& path, const std::string& data) {
+    Mesh mesh = ext == "ply" ? read_ply_mesh(path, data) : ext == "obj" ? read_obj_mesh(path, data) : read_vtk_mesh(path, data);
+    if (!mesh.vertex_level.empty() && mesh.vertex_level.size() != mesh.vertex_count())
+        fail(path, "vertex level count does not match the vertex count");
+    return mesh;
 }
 
 }  // namespace trilevel
