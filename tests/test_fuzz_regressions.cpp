@@ -36,8 +36,9 @@ TEST_CASE("fuzz regressions: every input that once crashed a reader is a clean o
     const auto expected = expected_messages();
     std::set<std::string> on_disk;
     for (const char* kind : {"particles", "mesh"})
-        for (const auto& e : fs::directory_iterator(regressions_dir() / kind))
-            on_disk.insert(std::string(kind) + "/" + e.path().filename().string());
+        if (fs::is_directory(regressions_dir() / kind))  // git keeps no empty directory
+            for (const auto& e : fs::directory_iterator(regressions_dir() / kind))
+                on_disk.insert(std::string(kind) + "/" + e.path().filename().string());
     std::set<std::string> listed;
     for (const auto& [name, msg] : expected) listed.insert(name);
     REQUIRE(on_disk == listed);  // no input without its expected message, no message without its input
