@@ -10,21 +10,22 @@
 #include <iostream>
 #include <limits>
 #include <new>
+#include <optional>
 #include <string>
 #include <unordered_map>
 
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
 
+#include "frame_sequence.hpp"
 #include "io/io_common.hpp"
 #include "trilevel/io.hpp"
 #include "trilevel/trilevel.hpp"
 
 namespace {
 
-/// A usage error: bad option values (exit code 2).
-struct UsageError : trilevel::Error {
-    using trilevel::Error::Error;
-};
+using trilevel::cli::UsageError;  // bad option values (exit code 2)
 
 /// Parses a number option given as text, so that "nan", "1e999" and "abc" get our own message.
 double parse_number(const std::string& name, const std::string& text) {
@@ -81,9 +82,12 @@ void check_output(const std::string& path, const std::vector<std::string>& exten
 
 struct ReconstructArgs {
     std::string input, output, radius, kernel_radius = "4", mode = "adaptive", cell = "1", threshold, memory,
-        stats;
+        stats, hysteresis;
+    std::string start, end;  // frame sequences: range of frame numbers
     int device = -1;
-    bool color_levels = false, quiet = false;
+    bool color_levels = false, quiet = false, skip_existing = false, drop_invalid = false;
+    std::string normals;                  ///< "" (none), "gradient" or "area"
+    std::vector<std::string> attributes;  ///< particle attributes to interpolate at the vertices
 };
 
 trilevel::Params make_params(const ReconstructArgs& a) {
@@ -99,7 +103,24 @@ trilevel::Params make_params(const ReconstructArgs& a) {
         throw UsageError("cell (--cell) " + a.cell + ": 4/cell must be an integer (e.g. 0.5, 1, 2 or 4)");
     if (!a.threshold.empty()) p.curvature_threshold = positive("curvature threshold (--curvature-threshold)", a.threshold);
     if (!a.memory.empty()) p.memory_limit_bytes = parse_bytes(a.memory);
+    p.level_hysteresis = 0.2f;  // sequences (README: 0.2 removes 71% of the level changes); no effect on one file
+    if (!a.hysteresis.empty()) {
+        const double h = parse_number("--level-hysteresis", a.hysteresis);
+        if (!(h >= 0 && h < 1)) throw UsageError("--level-hysteresis must lie in [0, 1), got '" + a.hysteresis + "'");
+        p.level_hysteresis = static_cast<float>(h);
+    }
+    if (a.normals == "gradient") p.normals = trilevel::NormalMode::Gradient;
+    else if (a.normals == "area") p.normals = trilevel::NormalMode::Area;
+    else if (!a.normals.empty()) throw UsageError("--normals must be gradient or area (or given alone), got '" + a.normals + "'");
     return p;
+}
+
+/// A frame number option (--start, --end): a non-negative integer.
+std::optional<std::uint64_t> frame_option(const std::string& name, const std::string& text) {
+    if (text.empty()) return std::nullopt;
+    if (!std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; }) || text.size() > 18)
+        throw UsageError(name + " must be a frame number (a non-negative integer), got '" + text + "'");
+    return std::stoull(text);
 }
 
 double total_ms(const trilevel::Stats& s, double wall_ms) {
@@ -108,14 +129,35 @@ double total_ms(const trilevel::Stats& s, double wall_ms) {
     return wall_ms;
 }
 
-/// One input file -> one mesh (and stats) file; prints the summary unless quiet.
+/// The attributes asked for with --attribute, in that order; Error for one the file did not give.
+std::vector<trilevel::ParticleAttribute> requested_attributes(const std::string& input, const trilevel::ParticleSet& set,
+                                                              const std::vector<std::string>& names) {
+    std::vector<trilevel::ParticleAttribute> out;
+    for (const auto& name : names) {
+        const auto it = std::find_if(set.attributes.begin(), set.attributes.end(), [&](const auto& a) { return a.name == name; });
+        if (it == set.attributes.end())
+            throw trilevel::Error(input + ": no particle attribute '" + name + "' (attributes are read from .vtk, .vtu and .bgeo files)");
+        out.push_back(*it);
+    }
+    return out;
+}
+
+/// One input file -> one mesh (and stats) file. Prints the summary unless quiet or `result` is
+/// given, which receives a one-line summary and the level changes instead (frame sequences).
 void reconstruct_file(trilevel::Reconstructor& rec, const trilevel::Params& params, const ReconstructArgs& a,
-                      const std::string& input, const std::string& output, const std::string& stats_path) {
+                      const std::string& input, const std::string& output, const std::string& stats_path,
+                      trilevel::cli::FrameResult* result = nullptr) {
     const auto start = std::chrono::steady_clock::now();
-    const trilevel::ParticleSet particles = trilevel::read_particles(input);
+    trilevel::ReadOptions read_options;
+    read_options.attributes = a.attributes;
+    read_options.drop_invalid = a.drop_invalid;
+    const trilevel::ParticleSet particles = trilevel::read_particles(input, read_options);
+    if (particles.dropped_invalid > 0)
+        std::fprintf(stderr, "warning: %s: dropped %zu particles with NaN/Inf coordinates\n", input.c_str(), particles.dropped_invalid);
     if (particles.size() == 0) throw trilevel::Error(input + ": holds no particles");
+    const auto attributes = requested_attributes(input, particles, a.attributes);
     trilevel::Stats stats;
-    const trilevel::Mesh mesh = rec.reconstruct(particles.positions.data(), particles.size(), params, &stats);
+    const trilevel::Mesh mesh = rec.reconstruct(particles.positions.data(), particles.size(), params, &stats, attributes);
     trilevel::MeshWriteOptions options;
     options.color_levels = a.color_levels;
     trilevel::write_mesh(output, mesh, options);
@@ -126,68 +168,53 @@ void reconstruct_file(trilevel::Reconstructor& rec, const trilevel::Params& para
         out.commit();
     }
     const double wall = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    if (!a.quiet)
+    if (result) {
+        char buf[160];
+        std::snprintf(buf, sizeof buf, "%zu particles, %zu triangles, %s, %.0f ms", particles.size(), mesh.triangle_count(),
+                      stats.closed ? "closed" : "NOT closed", total_ms(stats, wall));
+        result->line = buf;
+        if (stats.level_history)
+            result->line += ", " + std::to_string(stats.level_flips) + " of " + std::to_string(stats.level_cells_compared) +
+                            " cells changed level";
+        result->level_flips = stats.level_flips;
+        result->level_cells_compared = stats.level_cells_compared;
+    } else if (!a.quiet)
         std::printf("particles: %zu\nsurface cells: %zu (level 2: %zu, level 3: %zu)\ntriangles: %zu\nclosed: %s\n"
                     "total time: %.1f ms\noutput: %s\n",
                     particles.size(), stats.surface_cells, stats.surface_cells_level2, stats.surface_cells_level3,
                     mesh.triangle_count(), stats.closed ? "yes" : "no", total_ms(stats, wall), output.c_str());
 }
 
-std::string replace_braces(const std::string& pattern, const std::string& frame) {
-    const auto at = pattern.find("{}");
-    return at == std::string::npos ? pattern : pattern.substr(0, at) + frame + pattern.substr(at + 2);
-}
-
-/// The frame numbers (as written, e.g. "007") of the files matching a "{}" pattern, in numeric order.
-std::vector<std::string> find_frames(const std::string& pattern) {
-    const std::filesystem::path p(pattern);
-    const std::string name = p.filename().string();
-    const auto at = name.find("{}");
-    if (at == std::string::npos) throw UsageError(pattern + ": '{}' must be in the file name, not in a directory");
-    const std::string prefix = name.substr(0, at), suffix = name.substr(at + 2);
-    const auto dir = p.parent_path().empty() ? std::filesystem::path(".") : p.parent_path();
-    std::error_code ec;
-    if (!std::filesystem::is_directory(dir, ec)) throw trilevel::Error(pattern + ": directory '" + dir.string() + "' does not exist");
-    std::vector<std::string> frames;
-    for (const auto& e : std::filesystem::directory_iterator(dir, ec)) {
-        const std::string f = e.path().filename().string();
-        if (f.size() <= prefix.size() + suffix.size() || f.compare(0, prefix.size(), prefix) != 0 ||
-            f.compare(f.size() - suffix.size(), suffix.size(), suffix) != 0)
-            continue;
-        const std::string mid = f.substr(prefix.size(), f.size() - prefix.size() - suffix.size());
-        if (std::all_of(mid.begin(), mid.end(), [](char c) { return c >= '0' && c <= '9'; })) frames.push_back(mid);
-    }
-    std::sort(frames.begin(), frames.end(), [](const std::string& x, const std::string& y) {
-        const auto nx = std::stoull(x.substr(0, 19)), ny = std::stoull(y.substr(0, 19));
-        return nx != ny ? nx < ny : x < y;
-    });
-    if (frames.empty()) throw trilevel::Error(pattern + ": no frame files match");
-    return frames;
-}
-
 int run_reconstruct(const ReconstructArgs& a) {
     const trilevel::Params params = make_params(a);
-    const bool sequence = a.input.find("{}") != std::string::npos;
-    if (sequence && a.output.find("{}") == std::string::npos)
+    const bool sequence = trilevel::cli::is_sequence_pattern(a.input);
+    if (sequence && !trilevel::cli::is_sequence_pattern(a.output))
         throw UsageError("-o must contain '{}' when the input is a frame sequence");
-    if (sequence && !a.stats.empty() && a.stats.find("{}") == std::string::npos)
+    if (sequence && !a.stats.empty() && !trilevel::cli::is_sequence_pattern(a.stats))
         throw UsageError("--stats must contain '{}' when the input is a frame sequence");
-    check_output(replace_braces(a.output, "0"), {"ply", "obj", "vtk"}, "mesh");
-    if (!a.stats.empty()) check_output(replace_braces(a.stats, "0"), {"json"}, "statistics");
+    if (!sequence && (!a.start.empty() || !a.end.empty() || a.skip_existing))
+        throw UsageError("--start, --end and --skip-existing need a frame sequence ('{}' in the input)");
+    check_output(trilevel::cli::frame_path(a.output, "0"), {"ply", "obj", "vtk"}, "mesh");
+    if (!a.stats.empty()) check_output(trilevel::cli::frame_path(a.stats, "0"), {"json"}, "statistics");
     if (!sequence) {
         trilevel::Reconstructor rec(a.device);
         reconstruct_file(rec, params, a, a.input, a.output, a.stats);
         return 0;
     }
-    const auto frames = find_frames(a.input);
-    trilevel::Reconstructor rec(a.device);  // compiled kernels and buffers are reused across frames
-    for (std::size_t i = 0; i < frames.size(); ++i) {
-        if (!a.quiet) std::printf("frame %s (%zu of %zu)\n", frames[i].c_str(), i + 1, frames.size());
-        reconstruct_file(rec, params, a, replace_braces(a.input, frames[i]), replace_braces(a.output, frames[i]),
-                         replace_braces(a.stats, frames[i]));
-        std::fflush(stdout);
-    }
-    return 0;
+    trilevel::cli::SequenceOptions options;
+    options.start = frame_option("--start", a.start);
+    options.end = frame_option("--end", a.end);
+    options.skip_existing = a.skip_existing;
+    options.quiet = a.quiet;
+    options.progress_bar = ::isatty(STDERR_FILENO) != 0;
+    const auto plan = trilevel::cli::plan_frame_sequence(a.input, a.output, a.stats, options);
+    trilevel::Reconstructor rec(a.device);  // compiled kernels are reused across frames
+    rec.reset_history();                    // the first frame's levels do not depend on anything before
+    return trilevel::cli::run_frame_sequence(plan, options, [&](const trilevel::cli::FrameJob& job) {
+        trilevel::cli::FrameResult result;
+        reconstruct_file(rec, params, a, job.input, job.output, job.stats, &result);
+        return result;
+    });
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -196,6 +223,7 @@ int run_reconstruct(const ReconstructArgs& a) {
 struct GenerateArgs {
     std::string scene, output, radius;
     std::uint64_t seed = 1;
+    int frame = 0, frames = 1;  // moving scenes: the first frame and how many
 };
 
 int run_generate(const GenerateArgs& a) {
@@ -206,10 +234,17 @@ int run_generate(const GenerateArgs& a) {
         for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
         throw UsageError("unknown scene '" + a.scene + "', expected one of: " + list);
     }
-    check_output(a.output, {"xyz", "ply", "vtk"}, "particle");
-    const auto set = trilevel::generate_scene(a.scene, radius, a.seed);
-    trilevel::write_particles(a.output, set);
-    std::printf("%zu particles -> %s\n", set.size(), a.output.c_str());
+    if (a.frame < 0) throw UsageError("--frame must be >= 0, got " + std::to_string(a.frame));
+    if (a.frames < 1) throw UsageError("--frames must be >= 1, got " + std::to_string(a.frames));
+    const bool sequence = trilevel::cli::is_sequence_pattern(a.output);
+    if (a.frames > 1 && !sequence) throw UsageError("-o must contain '{}' when --frames is more than 1");
+    check_output(trilevel::cli::frame_path(a.output, "0"), {"xyz", "ply", "vtk"}, "particle");
+    for (int f = a.frame; f < a.frame + a.frames; ++f) {
+        const std::string path = trilevel::cli::frame_path(a.output, trilevel::cli::padded_frame(std::uint64_t(f), 4));
+        const auto set = trilevel::generate_scene(a.scene, radius, a.seed, f);
+        trilevel::write_particles(path, set);
+        std::printf("%zu particles -> %s\n", set.size(), path.c_str());
+    }
     return 0;
 }
 
@@ -344,13 +379,28 @@ int run(int argc, char** argv) {
     rec->add_option("--device", ra.device, "OpenCL device index (see `trilevel devices`)");
     rec->add_option("--stats", ra.stats, "Write statistics as JSON");
     rec->add_flag("--color-levels", ra.color_levels, "PLY: colour vertices by level (green 2, blue 3)");
+    auto* normals = rec->add_option("--normals", ra.normals,
+                                    "Per-vertex normals: gradient of the scalar field (alone or 'gradient') or 'area' (area-weighted)")
+                        ->expected(0, 1);
+    rec->add_option("--attribute", ra.attributes,
+                    "Particle attribute to interpolate at the vertices (e.g. velocity; .vtk/.vtu/.bgeo input; repeatable)")
+        ->allow_extra_args(false);  // one name per --attribute, so a following input file stays positional
     rec->add_option("--memory-limit", ra.memory, "Budget for the largest allocations, bytes or e.g. 2G");
     rec->add_flag("-q,--quiet", ra.quiet, "Print nothing on success");
+    rec->add_option("--level-hysteresis", ra.hysteresis,
+                    "Sequences, adaptive mode: a cell keeps its previous level until its curvature passes the "
+                    "threshold by this fraction of it (default 0.2, 0 = off)");
+    rec->add_option("--start", ra.start, "Sequences: first frame number to process (inclusive)");
+    rec->add_option("--end", ra.end, "Sequences: last frame number to process (inclusive)");
+    rec->add_flag("--skip-existing", ra.skip_existing, "Sequences: skip frames whose outputs exist (resume a run)");
+    rec->add_flag("--drop-invalid", ra.drop_invalid, "Drop particles with NaN/Inf coordinates (with a warning) instead of failing");
 
     GenerateArgs ga;
     auto* gen = app.add_subcommand("generate", "Writes a test particle scene");
-    gen->add_option("scene", ga.scene, "block, sphere, dam-break or pool-and-drop")->required();
-    gen->add_option("-o,--output", ga.output, "Particle file (.xyz, .ply, .vtk)")->required();
+    gen->add_option("scene", ga.scene, "block, sphere, dam-break, pool-and-drop or falling-drop (moving)")->required();
+    gen->add_option("-o,--output", ga.output, "Particle file (.xyz, .ply, .vtk); '{}': frame number, 4 digits")->required();
+    gen->add_option("--frame", ga.frame, "Moving scenes: the (first) frame to write (default 0)");
+    gen->add_option("--frames", ga.frames, "How many consecutive frames to write (default 1; needs '{}' in -o)");
     gen->add_option("--radius", ga.radius, "Particle radius in world units")->required();
     gen->add_option("--seed", ga.seed, "Jitter seed (default 1)");
 
@@ -369,6 +419,7 @@ int run(int argc, char** argv) {
     } catch (const CLI::ParseError& e) {
         return report(e.what(), 2);
     }
+    if (rec->parsed() && normals->count() > 0 && ra.normals.empty()) ra.normals = "gradient";
     if (rec->parsed()) return run_reconstruct(ra);
     if (gen->parsed()) return run_generate(ga);
     if (info->parsed()) return run_info(info_input);
@@ -379,6 +430,7 @@ int run(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
+    trilevel::io::remove_temporaries_on_signals();  // Ctrl-C never leaves a temporary output behind
     try {
         return run(argc, argv);
     } catch (const UsageError& e) {

@@ -1,7 +1,10 @@
 // Stage 2 (DESIGN §3.1, Müller et al. 2003): colour field gradient per particle with poly6
 // weights -> surface particles and normals; fewer than SPLASH_NEIGHBOURS neighbours -> splash.
 // Runs over the binned (sorted) particles; outputs are in sorted order.
-// Build options: SURFACE_GRADIENT, SPLASH_NEIGHBOURS, THIN_NEIGHBOURS.
+// Build options: SURFACE_GRADIENT, SPLASH_NEIGHBOURS, THIN_NEIGHBOURS, SAME_SPOT.
+// A neighbour closer than SAME_SPOT * R is the same spot, not a neighbour, for the splash and thin
+// counts: particles stacked on one point have no colour-field gradient at all, so without this a
+// pile of them would be neither surface nor splash and vanish from the mesh.
 
 #define FLAG_SURFACE 1
 #define FLAG_SPLASH 2
@@ -13,6 +16,7 @@ inline void color_field_global(uint i, __global const float4* sorted, float inv_
                                ulong bin_mask, __global const uint2* range, float R2, float grad_norm,
                                float3* g_out, int* n_out) {
     const float4 xi = sorted[i];
+    const float same2 = R2 * (SAME_SPOT * SAME_SPOT);
     float3 g = (float3)(0.0f);
     int neighbours = 0;
     FOR_EACH_NEIGHBOUR_BIN(xi, inv_cell, bin_keys, bin_mask, range, sorted, {
@@ -21,7 +25,7 @@ inline void color_field_global(uint i, __global const float4* sorted, float inv_
         if (d2 < R2 && j != i) {
             float q = R2 - d2;
             g += grad_norm * q * q * d;
-            ++neighbours;
+            if (d2 > same2) ++neighbours;
         }
     })
     *g_out = g;
@@ -46,7 +50,7 @@ __kernel void color_field(__global const float4* sorted, __global const uint* oc
                           __global const ulong* bin_keys, ulong bin_mask, __global const uint2* range, float R,
                           float volume, __global float4* gradient, __global uchar* flags, __local float4* cand,
                           __local uint* bin_first, __local uint* bin_slot, __local uint* count) {
-    const float R2 = R * R;
+    const float R2 = R * R, same2 = R2 * (SAME_SPOT * SAME_SPOT);
     const float grad_norm = -945.0f / (32.0f * M_PI_F * pown(R, 9)) * volume;
     const uint lid = get_local_id(0), lsize = get_local_size(0);
     const uint first_bin = get_group_id(0) * per_group;
@@ -86,7 +90,7 @@ __kernel void color_field(__global const float4* sorted, __global const uint* oc
                 const float8 q = select((float8)(0.0f), R2 - d2, in);
                 const float8 w = grad_norm * q * q;
                 gx += w * dx; gy += w * dy; gz += w * dz;
-                nb -= in;  // true is -1
+                nb -= in & (d2 > same2);  // true is -1
             }
             float ox[8], oy[8], oz[8];
             int on[8];

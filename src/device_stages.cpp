@@ -108,7 +108,10 @@ BinnedParticles bin_particles(OpenCLRuntime& rt, const std::vector<glm::vec4>& p
     auto range = scan_ranges(counts);
     std::vector<cl_uint> occupied;
     for (std::size_t s = 0; s < cap; ++s)
-        if (counts[s]) occupied.push_back(cl_uint(s));
+        if (counts[s]) {
+            occupied.push_back(cl_uint(s));
+            b.pair_load += std::uint64_t(counts[s]) * counts[s];
+        }
     b.occupied_count = occupied.size();
     b.occupied = rt.buffer(occupied.size() * sizeof(cl_uint), "occupied bins");
     rt.queue().enqueueWriteBuffer(b.occupied, CL_TRUE, 0, occupied.size() * sizeof(cl_uint), occupied.data());
@@ -341,6 +344,7 @@ void insert_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<std
 
 FinePointMap map_fine_points(OpenCLRuntime& rt, FinePoints& p) {
     rt.finish();
+    if (p.hash.capacity == 0) return FinePointMap();  // no surface cell: no table
     const std::size_t cap = p.hash.capacity;
     p.mapped_keys = static_cast<std::uint64_t*>(
         rt.queue().enqueueMapBuffer(p.hash.keys, CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0, cap * sizeof(cl_ulong)));

@@ -32,6 +32,7 @@ struct BinnedParticles {
     cl::Buffer range;       ///< uint2 per bin slot: first sorted index, count
     cl::Buffer occupied;    ///< uint: the slots of the non-empty bins
     std::size_t occupied_count = 0;
+    std::uint64_t pair_load = 0;  ///< sum over bins of count^2: the neighbour work, before it is done
 };
 BinnedParticles bin_particles(OpenCLRuntime& rt, const std::vector<glm::vec4>& positions, float cell);
 
@@ -76,7 +77,7 @@ void insert_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vecto
                          const std::vector<CoarseCell>& holders, const LatticeFrame& frame,
                          const BinnedParticles& bins, float r, float R);
 /// Maps the table for the host and returns a view of it: no copy on CPU devices (the buffers are
-/// allocated host-accessible). Host writes (transition continuity) land in the table. Call
+/// allocated host-accessible); an empty view when nothing was ever inserted. Host writes (transition continuity) land in the table. Call
 /// unmap_fine_points before the next device stage touches `points`.
 FinePointMap map_fine_points(OpenCLRuntime& rt, FinePoints& points);
 void unmap_fine_points(OpenCLRuntime& rt, FinePoints& points);

@@ -1,6 +1,7 @@
 #include "opencl_runtime.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cstdio>
 #include <cstdlib>
 #include <sstream>
@@ -27,8 +28,15 @@ std::string type_name(cl_device_type t) {
 
 std::vector<cl::Device> all_devices(std::vector<std::string>* platform_names) {
     std::vector<cl::Platform> platforms;
-    if (cl::Platform::get(&platforms) != CL_SUCCESS || platforms.empty())
-        throw Error("no OpenCL platform found (install an OpenCL driver, e.g. the Debian package pocl-opencl-icd)");
+    cl_int status = CL_SUCCESS;
+    try {
+        status = cl::Platform::get(&platforms);
+    } catch (const cl::Error& e) {  // the ICD loader reports "no platform" as an error code
+        status = e.err();
+    }
+    if (status != CL_SUCCESS || platforms.empty())
+        throw Error("no OpenCL platform found (" + (status != CL_SUCCESS ? cl_error_name(status) : std::string("none listed")) +
+                    "; install an OpenCL driver, e.g. the Debian package pocl-opencl-icd)");
     std::vector<cl::Device> out;
     for (auto& p : platforms) {
         std::vector<cl::Device> devs;
@@ -81,6 +89,14 @@ int choose_device(int requested, const std::vector<cl::Device>& devices) {
     return 0;
 }
 
+std::atomic<std::int64_t> g_live_buffers{0}, g_live_bytes{0};
+
+void CL_CALLBACK buffer_released(cl_mem, void* bytes) {
+    g_live_buffers.fetch_sub(1, std::memory_order_relaxed);
+    g_live_bytes.fetch_sub(std::int64_t(reinterpret_cast<std::uintptr_t>(bytes)), std::memory_order_relaxed);
+}
+
+
 std::string mib(std::uint64_t bytes) {
     char buf[32];
     std::snprintf(buf, sizeof(buf), "%.1f MiB", double(bytes) / double(1 << 20));
@@ -92,22 +108,24 @@ std::string build_options(std::size_t max_candidates) {
     o.precision(9);
     o << "-cl-std=CL1.2 -DMAX_CANDIDATES=" << max_candidates << " -DSURFACE_GRADIENT=" << constants::kSurfaceGradient << "f"
       << " -DSPLASH_NEIGHBOURS=" << constants::kSplashNeighbours
-      << " -DTHIN_NEIGHBOURS=" << constants::kThinNeighbours << " -DEV_LOW=" << constants::kEvLow << "f"
+      << " -DTHIN_NEIGHBOURS=" << constants::kThinNeighbours << " -DSAME_SPOT=" << constants::kSameSpot << "f" << " -DEV_LOW=" << constants::kEvLow << "f"
       << " -DEV_HIGH=" << constants::kEvHigh << "f";
     return o.str();
 }
 
 }  // namespace
 
-std::vector<DeviceInfo> list_devices() {
+std::vector<DeviceInfo> list_devices() try {
     std::vector<std::string> platforms;
     auto devices = all_devices(&platforms);
     std::vector<DeviceInfo> out;
     for (std::size_t i = 0; i < devices.size(); ++i) out.push_back(describe(devices[i], int(i), platforms[i]));
     return out;
+} catch (const cl::Error& e) {
+    throw Error(std::string("cannot list OpenCL devices: ") + e.what() + " returned " + cl_error_name(e.err()));
 }
 
-OpenCLRuntime::OpenCLRuntime(int device) {
+OpenCLRuntime::OpenCLRuntime(int device) try {
     std::vector<std::string> platforms;
     auto devices = all_devices(&platforms);
     int idx = choose_device(device, devices);
@@ -128,6 +146,8 @@ OpenCLRuntime::OpenCLRuntime(int device) {
     if (const char* env = std::getenv("TRILEVEL_MAX_CANDIDATES"); env && *env)  // tests: force the fallbacks
         max_candidates_ = std::min<std::size_t>(max_candidates_, std::max(1ul, std::strtoul(env, nullptr, 10)));
     build_program();
+} catch (const cl::Error& e) {
+    throw Error(std::string("cannot set up the OpenCL device: ") + e.what() + " returned " + cl_error_name(e.err()));
 }
 
 void OpenCLRuntime::build_program() {
@@ -150,7 +170,44 @@ cl::Kernel& OpenCLRuntime::kernel(const std::string& name) {
     return it->second;
 }
 
+void OpenCLRuntime::set_stage(const char* stage) {
+    if (!fault_stage_.empty() && fault_stage_ == stage_) maybe_fail("clFinish");  // armed, never fired
+    stage_ = stage;
+}
+
+void OpenCLRuntime::maybe_fail(const char* call) {
+    if (fault_stage_.empty() || fault_stage_ != stage_) return;
+    fault_stage_.clear();  // one fault per arming
+    throw cl::Error(CL_OUT_OF_RESOURCES, call);
+}
+
+void OpenCLRuntime::recover() noexcept {
+    try {
+        queue_.finish();
+    } catch (...) {  // the queue may be what failed; its commands are gone either way
+    }
+    events_.clear();
+    kernel_ms_.clear();
+    stage_.clear();
+    fault_stage_.clear();
+}
+
+std::uint64_t available_ram() {
+    std::uint64_t avail = 0;
+    if (std::FILE* f = std::fopen("/proc/meminfo", "r")) {
+        char line[256];
+        unsigned long long kb = 0;
+        while (std::fgets(line, sizeof(line), f))
+            if (std::sscanf(line, "MemAvailable: %llu kB", &kb) == 1) avail = std::uint64_t(kb) * 1024;
+        std::fclose(f);
+    }
+    return avail;
+}
+
+std::int64_t live_device_buffers() { return g_live_buffers.load(std::memory_order_relaxed); }
+
 void OpenCLRuntime::run(const std::string& name, std::size_t global) {
+    maybe_fail("clEnqueueNDRangeKernel");
     if (global == 0) return;
     cl::NDRange local = cl::NullRange;
     if (work_group_ > 0) {
@@ -163,6 +220,7 @@ void OpenCLRuntime::run(const std::string& name, std::size_t global) {
 }
 
 void OpenCLRuntime::run_groups(const std::string& name, std::size_t groups, std::size_t local) {
+    maybe_fail("clEnqueueNDRangeKernel");
     if (groups == 0) return;
     cl::Event ev;
     queue_.enqueueNDRangeKernel(kernel(name), cl::NullRange, cl::NDRange(groups * local), cl::NDRange(local), nullptr,
@@ -171,6 +229,7 @@ void OpenCLRuntime::run_groups(const std::string& name, std::size_t groups, std:
 }
 
 void OpenCLRuntime::finish() {
+    maybe_fail("clFinish");
     queue_.finish();
     for (auto& [name, ev] : events_) {
         auto start = ev.getProfilingInfo<CL_PROFILING_COMMAND_START>();
@@ -195,9 +254,25 @@ cl::Buffer OpenCLRuntime::buffer(std::size_t bytes, const char* what, cl_mem_fla
         throw Error(std::string("the ") + what + " would bring device memory to " + mib(allocated_ + bytes) +
                     ", over the budget of " + mib(budget_) +
                     " (--memory-limit or the device's memory); use a larger cell or a smaller domain");
+    // A CPU device's buffers are host memory: past the RAM that was available, the kernel's OOM
+    // killer would end the process instead of this error.
+    const std::int64_t live = g_live_bytes.load(std::memory_order_relaxed);
+    if (ram_room_ && std::uint64_t(std::max<std::int64_t>(0, live - live_at_reset_)) + bytes > ram_room_)
+        throw Error(std::string("the ") + what + " (" + mib(bytes) + ") would bring the device buffers of this CPU device to " +
+                    mib(std::uint64_t(std::max<std::int64_t>(0, live - live_at_reset_)) + bytes) + ", over the " +
+                    mib(ram_room_) + " of RAM available; use a larger cell or a smaller domain");
+    maybe_fail("clCreateBuffer");
     allocated_ += bytes;
     try {
-        return cl::Buffer(context_, flags, bytes);
+        cl::Buffer b(context_, flags, bytes);
+        g_live_buffers.fetch_add(1, std::memory_order_relaxed);
+        g_live_bytes.fetch_add(std::int64_t(bytes), std::memory_order_relaxed);
+        if (clSetMemObjectDestructorCallback(b(), buffer_released, reinterpret_cast<void*>(std::uintptr_t(bytes))) !=
+            CL_SUCCESS) {  // not counted, rather than a false leak
+            g_live_buffers.fetch_sub(1, std::memory_order_relaxed);
+            g_live_bytes.fetch_sub(std::int64_t(bytes), std::memory_order_relaxed);
+        }
+        return b;
     } catch (const cl::Error& e) {
         throw Error(std::string("cannot allocate the ") + what + " (" + mib(bytes) +
                     ") on the OpenCL device: " + cl_error_name(e.err()));
@@ -206,19 +281,70 @@ cl::Buffer OpenCLRuntime::buffer(std::size_t bytes, const char* what, cl_mem_fla
 
 void OpenCLRuntime::reset_budget(std::uint64_t limit) {
     budget_ = limit ? std::min<std::uint64_t>(limit, info_.global_memory) : info_.global_memory;
+    ram_room_ = info_.type == "CPU" ? available_ram() : 0;
+    live_at_reset_ = g_live_bytes.load(std::memory_order_relaxed);
     allocated_ = 0;
+}
+
+std::string cl_error_advice(cl_int code) {
+    switch (code) {
+        case CL_OUT_OF_RESOURCES:
+        case CL_MEM_OBJECT_ALLOCATION_FAILURE:
+        case CL_OUT_OF_HOST_MEMORY:
+            return "; the device ran out of memory or resources: use a larger cell or a smaller domain";
+        case CL_DEVICE_NOT_AVAILABLE:
+        case -9999:  // NVIDIA: illegal address, the device is lost
+            return "; the device was lost or is busy: check the driver, or pick another one with --device";
+        default: return "";
+    }
 }
 
 std::string cl_error_name(cl_int code) {
     switch (code) {
-        case CL_OUT_OF_RESOURCES: return "CL_OUT_OF_RESOURCES";
-        case CL_OUT_OF_HOST_MEMORY: return "CL_OUT_OF_HOST_MEMORY";
-        case CL_MEM_OBJECT_ALLOCATION_FAILURE: return "CL_MEM_OBJECT_ALLOCATION_FAILURE";
-        case CL_INVALID_BUFFER_SIZE: return "CL_INVALID_BUFFER_SIZE";
-        case CL_DEVICE_NOT_AVAILABLE: return "CL_DEVICE_NOT_AVAILABLE";
-        case CL_BUILD_PROGRAM_FAILURE: return "CL_BUILD_PROGRAM_FAILURE";
-        case CL_INVALID_WORK_GROUP_SIZE: return "CL_INVALID_WORK_GROUP_SIZE";
-        case CL_INVALID_KERNEL_ARGS: return "CL_INVALID_KERNEL_ARGS";
+#define TRILEVEL_CL_ERROR(name) \
+    case name: return #name;
+        TRILEVEL_CL_ERROR(CL_DEVICE_NOT_FOUND)
+        TRILEVEL_CL_ERROR(CL_DEVICE_NOT_AVAILABLE)
+        TRILEVEL_CL_ERROR(CL_COMPILER_NOT_AVAILABLE)
+        TRILEVEL_CL_ERROR(CL_MEM_OBJECT_ALLOCATION_FAILURE)
+        TRILEVEL_CL_ERROR(CL_OUT_OF_RESOURCES)
+        TRILEVEL_CL_ERROR(CL_OUT_OF_HOST_MEMORY)
+        TRILEVEL_CL_ERROR(CL_PROFILING_INFO_NOT_AVAILABLE)
+        TRILEVEL_CL_ERROR(CL_MEM_COPY_OVERLAP)
+        TRILEVEL_CL_ERROR(CL_BUILD_PROGRAM_FAILURE)
+        TRILEVEL_CL_ERROR(CL_MAP_FAILURE)
+        TRILEVEL_CL_ERROR(CL_MISALIGNED_SUB_BUFFER_OFFSET)
+        TRILEVEL_CL_ERROR(CL_EXEC_STATUS_ERROR_FOR_EVENTS_IN_WAIT_LIST)
+        TRILEVEL_CL_ERROR(CL_INVALID_VALUE)
+        TRILEVEL_CL_ERROR(CL_INVALID_DEVICE_TYPE)
+        TRILEVEL_CL_ERROR(CL_INVALID_PLATFORM)
+        TRILEVEL_CL_ERROR(CL_INVALID_DEVICE)
+        TRILEVEL_CL_ERROR(CL_INVALID_CONTEXT)
+        TRILEVEL_CL_ERROR(CL_INVALID_QUEUE_PROPERTIES)
+        TRILEVEL_CL_ERROR(CL_INVALID_COMMAND_QUEUE)
+        TRILEVEL_CL_ERROR(CL_INVALID_HOST_PTR)
+        TRILEVEL_CL_ERROR(CL_INVALID_MEM_OBJECT)
+        TRILEVEL_CL_ERROR(CL_INVALID_BINARY)
+        TRILEVEL_CL_ERROR(CL_INVALID_BUILD_OPTIONS)
+        TRILEVEL_CL_ERROR(CL_INVALID_PROGRAM)
+        TRILEVEL_CL_ERROR(CL_INVALID_PROGRAM_EXECUTABLE)
+        TRILEVEL_CL_ERROR(CL_INVALID_KERNEL_NAME)
+        TRILEVEL_CL_ERROR(CL_INVALID_KERNEL)
+        TRILEVEL_CL_ERROR(CL_INVALID_ARG_INDEX)
+        TRILEVEL_CL_ERROR(CL_INVALID_ARG_VALUE)
+        TRILEVEL_CL_ERROR(CL_INVALID_ARG_SIZE)
+        TRILEVEL_CL_ERROR(CL_INVALID_KERNEL_ARGS)
+        TRILEVEL_CL_ERROR(CL_INVALID_WORK_DIMENSION)
+        TRILEVEL_CL_ERROR(CL_INVALID_WORK_GROUP_SIZE)
+        TRILEVEL_CL_ERROR(CL_INVALID_WORK_ITEM_SIZE)
+        TRILEVEL_CL_ERROR(CL_INVALID_GLOBAL_OFFSET)
+        TRILEVEL_CL_ERROR(CL_INVALID_EVENT_WAIT_LIST)
+        TRILEVEL_CL_ERROR(CL_INVALID_EVENT)
+        TRILEVEL_CL_ERROR(CL_INVALID_OPERATION)
+        TRILEVEL_CL_ERROR(CL_INVALID_BUFFER_SIZE)
+        TRILEVEL_CL_ERROR(CL_INVALID_GLOBAL_WORK_SIZE)
+#undef TRILEVEL_CL_ERROR
+        case -1001: return "CL_PLATFORM_NOT_FOUND_KHR";
         default: return "OpenCL error " + std::to_string(code);
     }
 }

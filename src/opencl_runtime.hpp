@@ -43,13 +43,26 @@ public:
     /// A device buffer of `bytes`, checked against the device's limits and the memory budget first.
     cl::Buffer buffer(std::size_t bytes, const char* what, cl_mem_flags flags = CL_MEM_READ_WRITE);
 
-    /// Starts a reconstruction's accounting: `limit` bytes (0: the device's global memory).
+    /// Starts a reconstruction's accounting: `limit` bytes (0: the device's global memory). On CPU
+    /// devices the buffers held at once must also fit the RAM available now (MemAvailable).
     void reset_budget(std::uint64_t limit);
     /// Bytes of device buffers allocated since reset_budget (an upper bound of what is held).
     std::uint64_t allocated_bytes() const { return allocated_; }
 
+    /// The pipeline stage now running, named in OpenCL errors ("binning", "scalar_field", ...).
+    /// Leaving a stage in which an injected fault was armed but did not fire fires it there.
+    void set_stage(const char* stage);
+    const std::string& stage() const { return stage_; }
+    /// Test hook (TRILEVEL_FAULT=stage): the first launch, wait or allocation in `stage` fails as
+    /// if the device had returned CL_OUT_OF_RESOURCES. Empty: no fault.
+    void inject_fault(const std::string& stage) { fault_stage_ = stage; }
+    /// After a failed reconstruction: waits for what is still queued (ignoring errors) and drops the
+    /// pending events and timings, so the next reconstruction starts from a clean queue.
+    void recover() noexcept;
+
 private:
     void build_program();
+    void maybe_fail(const char* call);
 
     DeviceInfo info_;
     cl::Device device_;
@@ -62,9 +75,21 @@ private:
     std::size_t work_group_ = 0;
     std::size_t max_candidates_ = 2048;
     std::uint64_t budget_ = 0, allocated_ = 0;
+    std::uint64_t ram_room_ = 0;     ///< CPU devices: MemAvailable at reset_budget (0: no check)
+    std::int64_t live_at_reset_ = 0; ///< live device bytes of the process at reset_budget
+    std::string stage_, fault_stage_;
 };
+
+/// Device buffers of every runtime in the process that are allocated and not yet released (counted
+/// by the OpenCL destructor callback): a leak check for long runs.
+std::int64_t live_device_buffers();
+
+/// MemAvailable of /proc/meminfo in bytes (0 when unknown): the host memory budget.
+std::uint64_t available_ram();
 
 /// Human-readable name of an OpenCL error code (CL_OUT_OF_RESOURCES, ...).
 std::string cl_error_name(cl_int code);
+/// What a user can do about an error code, as "; ..." (empty when there is nothing to say).
+std::string cl_error_advice(cl_int code);
 
 }  // namespace trilevel

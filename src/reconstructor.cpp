@@ -6,17 +6,21 @@
 #include <cstdio>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <unordered_map>
 
 #include <sys/resource.h>
 
 #include "band_closure.hpp"
 #include "device_stages.hpp"
+#include "domain_split.hpp"
 #include "edge_refinement.hpp"
+#include "level_history.hpp"
 #include "opencl_runtime.hpp"
 #include "stage_constants.hpp"
 #include "surface_mesher.hpp"
 #include "transition_continuity.hpp"
+#include "vertex_data.hpp"
 #include "trilevel/trilevel.hpp"
 
 namespace trilevel {
@@ -48,6 +52,12 @@ void require_positive(float v, const char* name, const char* why) {
         throw Error(std::string(name) + " must be finite and > 0 (" + why + "), got " + std::to_string(v));
 }
 
+std::string fmt(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof(buf), "%.3g", v);
+    return buf;
+}
+
 void validate(const Params& p) {
     require_positive(p.particle_radius, "particle radius", "half the particle spacing, world units");
     require_positive(p.kernel_radius, "kernel radius", "in particle radii");
@@ -59,8 +69,37 @@ void validate(const Params& p) {
         if (std::fabs(steps - std::round(steps)) > 1e-4f || std::round(steps) < 1.0f || std::round(steps) > 64.0f)
             throw Error("cell size " + std::to_string(p.cell) + " must divide the coarse cell of 4 radii (e.g. 0.5, 1, 2, 4)");
     }
+    if (p.normals != NormalMode::None && p.normals != NormalMode::Gradient && p.normals != NormalMode::Area)
+        throw Error("normals must be NormalMode::None, Gradient or Area");
     if (p.mode == Mode::Adaptive && p.curvature_threshold != 0.0f && !(std::isfinite(p.curvature_threshold) && p.curvature_threshold > 0.0f))
         throw Error("curvature threshold must be finite and > 0, got " + std::to_string(p.curvature_threshold));
+    if (!(p.level_hysteresis >= 0.0f && p.level_hysteresis < 1.0f))
+        throw Error("level hysteresis must lie in [0, 1) (a fraction of the curvature threshold), got " +
+                    std::to_string(p.level_hysteresis));
+    if (p.memory_limit_bytes != 0 && p.memory_limit_bytes < 4096)
+        throw Error("memory limit of " + std::to_string(p.memory_limit_bytes) +
+                    " bytes cannot hold even the smallest buffers; give at least 4 KiB (0: the device's and host's memory)");
+}
+
+/// Checks of the radius against the particles themselves (DESIGN §4: clear errors, no garbage):
+/// float32 coordinates must resolve the radius, and the kernel radius must stay in float range.
+void validate_against(const Params& p, const Bounds& b) {
+    const float far = float(b.max_abs);
+    const double ulp = double(std::nextafter(far, INFINITY)) - double(far);
+    if (ulp > 0.25 * p.particle_radius)
+        throw Error("particle radius " + fmt(p.particle_radius) + ": the float32 coordinates cannot resolve it (they are " +
+                    fmt(ulp) + " apart at |x| = " + fmt(b.max_abs) + "); check the radius, or move the particles nearer the origin");
+    if (!(b.max_abs + 4.0 * double(p.kernel_radius) * p.particle_radius < double(std::numeric_limits<float>::max()) / 4))
+        throw Error("particle radius " + fmt(p.particle_radius) + " times the kernel radius leaves the single-precision range");
+}
+
+/// Lengths are scaled by 2^k inside the pipeline when r lies outside [2^-10, 2^10]: the float
+/// kernels raise R to the 9th power (poly6 normalisation), which under- or overflows for radii like
+/// 1e-6 or 1e5. Scaling by a power of two is exact, so the mesh is the one of the scaled particles,
+/// scaled back; radii inside the band are not touched at all.
+int length_scale_exponent(float r) {
+    if (r >= std::ldexp(1.0f, -10) && r <= std::ldexp(1.0f, 10)) return 0;
+    return -std::ilogb(r);
 }
 
 /// Lattice and coarse grid of a frame. Adaptive and uniform --cell 2 use lattice step r with
@@ -68,11 +107,13 @@ void validate(const Params& p) {
 struct Grid {
     LatticeFrame frame;
     glm::dvec3 origin;  ///< double-precision lattice origin; particles are uploaded relative to it
+    CoarseBase coarse_base{};  ///< origin / coarse_edge: a whole number, so frames share one lattice
     float coarse_edge = 0.0f;
     int forced_level = 0;  ///< 0: adaptive
+    double extent_steps = 0;  ///< lattice steps the particles and their margin span on the widest axis
 };
 
-Grid make_grid(const Params& p, const float* xyz, std::size_t n) {
+Grid make_grid(const Params& p, const Bounds& b) {
     Grid g;
     const double r = p.particle_radius;
     g.coarse_edge = float(constants::kCoarseCell * r);
@@ -84,24 +125,27 @@ Grid make_grid(const Params& p, const float* xyz, std::size_t n) {
         g.frame.coarse_steps = 4;
     }
     g.frame.step = float(constants::kCoarseCell * r / g.frame.coarse_steps);
-    glm::dvec3 lo(std::numeric_limits<double>::max()), hi(std::numeric_limits<double>::lowest());
-    for (std::size_t i = 0; i < n; ++i) {
-        glm::dvec3 x(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
-        if (!std::isfinite(x.x) || !std::isfinite(x.y) || !std::isfinite(x.z))
-            throw Error("particle " + std::to_string(i) + " has a non-finite coordinate");
-        lo = glm::min(lo, x);
-        hi = glm::max(hi, x);
-    }
+    const glm::dvec3 lo(b.lo[0], b.lo[1], b.lo[2]), hi(b.hi[0], b.hi[1], b.hi[2]);
     const double edge = g.coarse_edge;
     // Two coarse cells of margin: the surface lies within R = one coarse cell of the particles.
-    g.origin = (glm::floor(lo / edge) - 2.0) * edge;
+    // Snapped to whole coarse cells, so every frame of a sequence uses the same global lattice
+    // (level_history.hpp).
+    const glm::dvec3 base = glm::floor(lo / edge) - 2.0;
+    g.origin = base * edge;
+    for (int a = 0; a < 3; ++a) g.coarse_base[std::size_t(a)] = std::int64_t(base[a]);
     g.frame.origin = glm::vec3(g.origin);
     glm::dvec3 extent = (hi - g.origin) / double(g.frame.step) + 3.0 * g.frame.coarse_steps;
-    double worst = std::max({extent.x, extent.y, extent.z});
-    if (worst > lattice::kMaxCoord)
-        throw Error("the particles span " + std::to_string(long(worst)) + " lattice steps on one axis, more than the " +
-                    std::to_string(lattice::kMaxCoord) + " the 20-bit lattice keys hold; use a larger cell or split the domain");
+    g.extent_steps = std::max({extent.x, extent.y, extent.z});
     return g;
+}
+
+/// Largest lattice extent one lattice takes; TRILEVEL_MAX_LATTICE_STEPS lowers it (tests: forces
+/// the split path of domain_split.hpp on small scenes).
+double lattice_capacity_steps() {
+    double cap = lattice::kMaxCoord;
+    if (const char* env = std::getenv("TRILEVEL_MAX_LATTICE_STEPS"); env && *env)
+        cap = std::clamp(std::strtod(env, nullptr), 64.0, cap);
+    return cap;
 }
 
 std::vector<glm::vec4> relative_positions(const float* xyz, std::size_t n, glm::dvec3 origin) {
@@ -149,9 +193,11 @@ FinePointMap close_band(OpenCLRuntime& rt, FinePoints& points, std::vector<Coars
     double t_field = 0, t_closure = 0;
     for (;;) {
         auto t0 = Clock::now();
+        rt.set_stage("scalar_field");
         refine_and_evaluate(rt, points, fresh, frame, bins, r, R);
         FinePointMap field = map_fine_points(rt, points);
         auto t1 = Clock::now();
+        rt.set_stage("band_closure");
         apply_transition_continuity(cells, frame, field);
         fresh = band_closure_cells(cells, frame, field);
         auto t2 = Clock::now();
@@ -183,10 +229,35 @@ void refine_level2_edges(OpenCLRuntime& rt, FinePoints& points, FinePointMap& fi
     field = map_fine_points(rt, points);
 }
 
+/// Stage 11 (host/vertex_data.hpp): normals and attributes at the vertices, each timed when asked for.
+void add_vertex_data(Mesh& mesh, const float* xyz, std::size_t n, const Params& p,
+                     const std::vector<ParticleAttribute>& attributes, StageTimer& timer) {
+    if (p.normals == NormalMode::None && attributes.empty()) return;
+    const float r = p.particle_radius, R = p.kernel_radius * r;
+    std::optional<reference::ParticleGrid> grid;  // only the area-weighted normals need no particles
+    if (p.normals == NormalMode::Gradient || !attributes.empty()) grid.emplace(vertex_particle_grid(xyz, n, r, R));
+    if (p.normals != NormalMode::None) {
+        mesh.normals = area_weighted_normals(mesh);
+        if (p.normals == NormalMode::Gradient) mesh.normals = gradient_normals(mesh, *grid, r, R, mesh.normals);
+        timer.stage("normals");
+    }
+    if (!attributes.empty()) {
+        mesh.attributes = interpolate_attributes(mesh, *grid, xyz, n, R, attributes);
+        timer.stage("attributes");
+    }
+}
+
 std::uint64_t peak_rss_bytes() {
     rusage u{};
     getrusage(RUSAGE_SELF, &u);
     return std::uint64_t(u.ru_maxrss) * 1024;
+}
+
+/// Whether two parameter sets give the same lattice and the same curvature, so that the levels
+/// of one frame are comparable with those of the next.
+bool same_levels_frame(const Params& a, const Params& b) {
+    return a.particle_radius == b.particle_radius && a.kernel_radius == b.kernel_radius && a.mode == b.mode &&
+           a.cell == b.cell;
 }
 
 }  // namespace
@@ -194,52 +265,231 @@ std::uint64_t peak_rss_bytes() {
 struct Reconstructor::Impl {
     explicit Impl(int device) : rt(device) {}
     OpenCLRuntime rt;
-    Mesh run(const float* xyz, std::size_t n, const Params& p, Stats& s);
+    LevelHistory history;  ///< levels of the previous frame (adaptive mode)
+    Params history_params;
+    float user_radius = 0.0f;  ///< the radius as given, for messages (the pipeline may run scaled)
+    Mesh frame(const float* xyz, std::size_t n, const Params& p, Stats& s);
+    Mesh domain(const float* xyz, std::size_t n, const Params& p, Stats& s, const Bounds& b);
+    Mesh run(const float* xyz, std::size_t n, const Params& p, const Grid& g, Stats& s);
+    void remember_levels(const std::vector<CoarseCell>& cells, const Grid& g, const Params& p, Stats& s);
 };
 
-Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, Stats& s) {
+namespace {
+
+/// Unmaps the fine-point table if a stage fails while the host holds it, so that no buffer is
+/// released mapped and the queue is left clean for the next frame.
+struct UnmapOnFailure {
+    OpenCLRuntime& rt;
+    FinePoints& points;
+    ~UnmapOnFailure() {
+        if (!points.mapped_keys && !points.mapped_values) return;
+        try {
+            unmap_fine_points(rt, points);
+        } catch (...) {  // the device failed already; the reconstruction reports that error
+        }
+    }
+};
+
+/// Host memory a reconstruction may use: the memory limit, else what the kernel says is available.
+std::uint64_t host_budget(const Params& p) {
+    const std::uint64_t avail = available_ram();
+    if (p.memory_limit_bytes) return avail ? std::min(avail, p.memory_limit_bytes) : p.memory_limit_bytes;
+    return avail;  // 0: unknown, no check
+}
+
+std::string human_bytes(double bytes) {
+    const char* unit[] = {"B", "KB", "MB", "GB", "TB"};
+    int u = 0;
+    while (bytes >= 1000 && u < 4) bytes /= 1000, ++u;
+    return fmt(bytes) + " " + unit[u];
+}
+
+/// Fails before a large host allocation that would not fit the budget (DESIGN §4).
+void check_host(double bytes, double budget, const std::string& what) {
+    if (budget > 0 && bytes > budget)
+        throw Error(what + " needs ~" + human_bytes(bytes) + " of host memory, over the budget of " + human_bytes(budget) +
+                    " (--memory-limit or the available RAM); use a larger cell or a smaller domain");
+}
+
+/// Adds the counts and times of one group's reconstruction to the frame's (split domains).
+void accumulate(Stats& into, const Stats& s) {
+    into.surface_particles += s.surface_particles;
+    into.splash_particles += s.splash_particles;
+    into.surface_cells += s.surface_cells;
+    into.surface_cells_level2 += s.surface_cells_level2;
+    into.surface_cells_level3 += s.surface_cells_level3;
+    into.splash_cells += s.splash_cells;
+    into.band_closure_cells += s.band_closure_cells;
+    into.fine_points += s.fine_points;
+    into.fine_points_level2 += s.fine_points_level2;
+    into.fine_points_level3 += s.fine_points_level3;
+    into.device_memory_bytes = std::max(into.device_memory_bytes, s.device_memory_bytes);
+    into.device = s.device;
+    auto add = [](auto& list, const auto& more) {
+        for (const auto& [name, ms] : more) {
+            auto it = std::find_if(list.begin(), list.end(), [&](const auto& e) { return e.first == name; });
+            if (it == list.end()) list.emplace_back(name, ms);
+            else it->second += ms;
+        }
+    };
+    add(into.time_ms, s.time_ms);
+    add(into.kernel_ms, s.kernel_ms);
+}
+
+void append(Mesh& into, Mesh&& m) {
+    if (into.positions.empty()) {
+        into = std::move(m);
+        return;
+    }
+    const auto base = std::uint32_t(into.vertex_count());
+    into.positions.insert(into.positions.end(), m.positions.begin(), m.positions.end());
+    for (std::uint32_t v : m.triangles) into.triangles.push_back(v + base);
+    into.vertex_level.insert(into.vertex_level.end(), m.vertex_level.begin(), m.vertex_level.end());
+    into.triangle_kind.insert(into.triangle_kind.end(), m.triangle_kind.begin(), m.triangle_kind.end());
+}
+
+}  // namespace
+
+/// Checks the radius against the particles, then runs the pipeline on radius-normalised lengths
+/// when the radius is outside the band the float kernels handle (length_scale_exponent).
+Mesh Reconstructor::Impl::frame(const float* xyz, std::size_t n, const Params& p, Stats& s) {
+    const Bounds b = bounds_of(xyz, n);
+    validate_against(p, b);
+    user_radius = p.particle_radius;
+    const int k = length_scale_exponent(p.particle_radius);
+    if (k == 0) return domain(xyz, n, p, s, b);
+    check_host(double(n) * 12, double(host_budget(p)), "a scaled copy of " + std::to_string(n) + " particles");
+    std::vector<float> scaled(xyz, xyz + 3 * n);
+    for (float& v : scaled) v = std::ldexp(v, k);
+    Params q = p;
+    q.particle_radius = std::ldexp(p.particle_radius, k);
+    Mesh m = domain(scaled.data(), n, q, s, bounds_of(scaled.data(), n));
+    for (float& v : m.positions) v = std::ldexp(v, -k);
+    return m;
+}
+
+/// One lattice when the particles fit it; otherwise groups of far-apart clusters, each on a
+/// lattice of its own, their meshes concatenated (domain_split.hpp).
+Mesh Reconstructor::Impl::domain(const float* xyz, std::size_t n, const Params& p, Stats& s, const Bounds& b) {
+    const double capacity = lattice_capacity_steps();
+    const Grid g = make_grid(p, b);
+    if (g.extent_steps <= capacity) return run(xyz, n, p, g, s);
+
+    const double R = double(p.kernel_radius) * p.particle_radius, edge = g.coarse_edge;
+    // A particle reaches R with its neighbour sums, its surface cells lie within R + one coarse
+    // cell, band closure adds one more, and levels look one 3x3x3 block (and its neighbours) further.
+    const double separation = 2.0 * (R + 3.0 * edge);
+    const double margin = 6.0 * g.frame.coarse_steps;  // make_grid's lattice margin, in steps
+    const double tile = 0.5 * (capacity - margin - 2.0 * g.frame.coarse_steps) * g.frame.step;
+    const auto groups = split_domain(xyz, n, separation, tile);
+    Mesh mesh;
+    std::vector<float> part;
+    for (const auto& members : groups) {
+        history.reset();  // each group has a lattice of its own: no level history across them
+        part.resize(3 * members.size());
+        for (std::size_t i = 0; i < members.size(); ++i)
+            for (int a = 0; a < 3; ++a) part[3 * i + a] = xyz[3 * std::size_t(members[i]) + a];
+        const Grid gg = make_grid(p, bounds_of(part.data(), members.size()));
+        if (gg.extent_steps > capacity)  // split_domain keeps every group within one lattice
+            throw Error("internal: a particle group of " + std::to_string(members.size()) + " does not fit one lattice");
+        Stats gs;
+        append(mesh, run(part.data(), members.size(), p, gg, gs));
+        accumulate(s, gs);
+    }
+    history.reset();
+    s.particles = n;
+    count_mesh(mesh, s);
+    s.closed = is_closed_and_oriented(mesh);
+    s.peak_memory_bytes = peak_rss_bytes();
+    return mesh;
+}
+
+Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, const Grid& g, Stats& s) {
     StageTimer timer(s);
-    const Grid g = make_grid(p, xyz, n);
     const float r = p.particle_radius, R = p.kernel_radius * r;
     const float threshold = p.curvature_threshold > 0.0f ? p.curvature_threshold : default_curvature_threshold();
+    const double host = double(host_budget(p));
     s.particles = n;
     s.device = rt.info().name;
     rt.reset_budget(p.memory_limit_bytes);
 
+    rt.set_stage("binning");
+    check_host(double(n) * sizeof(glm::vec4), host, "uploading " + std::to_string(n) + " particles");
     BinnedParticles bins = bin_particles(rt, relative_positions(xyz, n, g.origin), R);
+    // Neighbour sums cost sum(count^2) over bins of edge R; at a rest spacing of 2r a bin holds
+    // (K/2)^3 particles. Far more means every particle sees thousands of others: a radius far too
+    // large, or a pile of particles, that would run for hours instead of failing.
+    const double rest = std::pow(0.5 * p.kernel_radius, 3.0);
+    if (double(bins.pair_load) > std::max(double(1u << 28), 64.0 * rest * double(n)))
+        throw Error("particle radius " + fmt(user_radius) + ": on average each particle has " +
+                    fmt(double(bins.pair_load) / double(n)) + " others within one kernel radius (about " + fmt(rest) +
+                    " at a rest spacing of 2r), too many to sum; the radius is probably too large for these particles");
     timer.stage("binning");
+    rt.set_stage("surface_particles");
     ParticleClasses classes = classify_particles(rt, bins, r, R);
     s.surface_particles = classes.surface;
     s.splash_particles = classes.splash;
     timer.stage("surface_particles");
+    rt.set_stage("surface_cells");
     SurfaceCells sc = surface_cells(rt, bins, classes, r, R, g.coarse_edge, threshold, g.forced_level);
     for (std::uint8_t f : sc.splash) s.splash_cells += f;
+    if (!history.empty() && !same_levels_frame(history_params, p)) history.reset();
+    if (g.forced_level == 0)
+        s.level_held = history.apply(sc.cells, sc.curvature, sc.splash, g.coarse_base, threshold, p.level_hysteresis);
     classes = ParticleClasses{};  // memory follows the surface from here on (DESIGN §4)
     sc.particle_kappa = {};
     timer.stage("surface_cells");
 
     std::vector<CoarseCell> cells = sc.cells;
     FinePoints points;
-    FinePointMap field = close_band(rt, points, cells, g.frame, bins, r, R, s);
-    timer.restart();  // close_band recorded its own two entries
-    refine_level2_edges(rt, points, field, cells, g.frame, bins, r, R);
-    bins = BinnedParticles{};
-    timer.stage("edge_refinement");
-    s.surface_cells = cells.size();
-    for (const auto& c : cells) (c.level == 2 ? s.surface_cells_level2 : s.surface_cells_level3)++;
-    count_points(field, s);
+    UnmapOnFailure unmap_guard{rt, points};
+    Mesh mesh;
+    if (!cells.empty()) {  // particles without surface (none can be: a safety net) give an empty mesh
+        FinePointMap field = close_band(rt, points, cells, g.frame, bins, r, R, s);
+        timer.restart();  // close_band recorded its own two entries
+        rt.set_stage("edge_refinement");
+        refine_level2_edges(rt, points, field, cells, g.frame, bins, r, R);
+        bins = BinnedParticles{};
+        timer.stage("edge_refinement");
+        s.surface_cells = cells.size();
+        for (const auto& c : cells) (c.level == 2 ? s.surface_cells_level2 : s.surface_cells_level3)++;
+        count_points(field, s);
 
-    Mesh mesh = triangulate_cells(cells, g.frame, field);
-    field = FinePointMap();
-    unmap_fine_points(rt, points);
-    points = FinePoints{};
-    timer.stage("triangulation");
+        rt.set_stage("triangulation");
+        // Vertices and triangles are a fraction of the fine points (< 1 vertex and < 2 triangles per
+        // point on every scene measured); 40 bytes per point bounds the mesh and its edge maps.
+        check_host(double(s.fine_points) * 40, host, "the mesh of " + std::to_string(s.fine_points) + " fine points");
+        mesh = triangulate_cells(cells, g.frame, field);
+        field = FinePointMap();
+        unmap_fine_points(rt, points);
+        points = FinePoints{};
+        timer.stage("triangulation");
+    }
     count_mesh(mesh, s);
     s.closed = is_closed_and_oriented(mesh);
+    remember_levels(cells, g, p, s);
     for (auto& [name, ms] : rt.take_kernel_times()) s.kernel_ms.emplace_back(name, ms);
+    rt.set_stage("");
     s.peak_memory_bytes = peak_rss_bytes();
     s.device_memory_bytes = rt.allocated_bytes();
     return mesh;
+}
+
+/// Counts the flips against the previous frame and keeps this frame's levels (adaptive mode;
+/// uniform modes have no levels to keep coherent).
+void Reconstructor::Impl::remember_levels(const std::vector<CoarseCell>& cells, const Grid& g, const Params& p, Stats& s) {
+    if (g.forced_level != 0) {
+        history.reset();
+        return;
+    }
+    if (!history.empty()) {
+        const LevelHistory::Flips f = history.compare(cells, g.coarse_base);
+        s.level_history = true;
+        s.level_cells_compared = f.compared;
+        s.level_flips = f.changed;
+    }
+    history.record(cells, g.coarse_base);
+    history_params = p;
 }
 
 Reconstructor::Reconstructor(int device) : impl_(std::make_unique<Impl>(device)) {}
@@ -247,23 +497,44 @@ Reconstructor::~Reconstructor() = default;
 Reconstructor::Reconstructor(Reconstructor&&) noexcept = default;
 Reconstructor& Reconstructor::operator=(Reconstructor&&) noexcept = default;
 const DeviceInfo& Reconstructor::device() const { return impl_->rt.info(); }
+void Reconstructor::reset_history() { impl_->history.reset(); }
 
 Mesh Reconstructor::reconstruct(const float* xyz, std::size_t count, const Params& params, Stats* stats) {
+    return reconstruct(xyz, count, params, stats, {});
+}
+
+Mesh Reconstructor::reconstruct(const float* xyz, std::size_t count, const Params& params, Stats* stats,
+                                const std::vector<ParticleAttribute>& attributes) {
     validate(params);
     if (count == 0) throw Error("no particles to reconstruct (the input is empty)");
     if (count > std::numeric_limits<std::uint32_t>::max() / 2) throw Error("too many particles for one frame");
+    validate_attributes(attributes, count);
     Stats local;
     Stats& s = stats ? *stats : local;
     s = Stats{};
     auto t0 = Clock::now();
+    OpenCLRuntime& rt = impl_->rt;
+    const char* fault = std::getenv("TRILEVEL_FAULT");  // test hook: opencl_runtime.hpp, inject_fault
+    rt.inject_fault(fault ? fault : "");
+    // Whatever fails, the runtime is reset (queue drained, events dropped) so that the next frame
+    // starts clean, and no partial mesh is returned.
     try {
-        Mesh m = impl_->run(xyz, count, params, s);
+        Mesh m = impl_->frame(xyz, count, params, s);
+        StageTimer timer(s);  // normals and attributes: world units, after any scaling or split
+        add_vertex_data(m, xyz, count, params, attributes, timer);
         s.time_ms.emplace_back("total", std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
         return m;
     } catch (const cl::Error& e) {
-        throw Error(std::string("OpenCL call ") + e.what() + " failed: " + cl_error_name(e.err()));
+        const std::string stage = rt.stage().empty() ? std::string("setup") : rt.stage();
+        rt.recover();
+        throw Error("OpenCL failure in stage " + stage + ": " + e.what() + " returned " + cl_error_name(e.err()) +
+                    cl_error_advice(e.err()));
     } catch (const std::bad_alloc&) {
-        throw Error("out of host memory during reconstruction; use a larger cell or --memory-limit");
+        rt.recover();
+        throw Error("out of host memory during reconstruction; use a larger cell, a smaller domain or --memory-limit");
+    } catch (...) {
+        rt.recover();
+        throw;
     }
 }
 

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <functional>
 
+#include <glm/glm.hpp>
+
 #include "trilevel/io.hpp"
 
 namespace trilevel {
@@ -38,6 +40,11 @@ public:
     void add(double x, double y, double z, double jitter = kJitter) {
         const double p[3] = {x, y, z};
         for (double c : p) out_.positions.push_back(static_cast<float>((c + jitter * rng_.symmetric()) * spacing_));
+    }
+
+    /// Adds a particle at exactly (x, y, z), lattice units.
+    void place(double x, double y, double z) {
+        for (double c : {x, y, z}) out_.positions.push_back(static_cast<float>(c * spacing_));
     }
 
     /// Every lattice point of the box [x0, x0+nx) x ... for which keep(i, j, k) holds.
@@ -116,9 +123,68 @@ ParticleSet pool_and_drop(SceneBuilder& b) {
     return b.take();
 }
 
+/// Lattice points of a ball of `diameter` points centred on the origin (as SceneBuilder::ball).
+std::vector<glm::dvec3> ball_offsets(int diameter) {
+    std::vector<glm::dvec3> out;
+    const double c = 0.5 * (diameter - 1), r = 0.5 * diameter;
+    for (int j = 0; j < diameter; ++j)
+        for (int k = 0; k < diameter; ++k)
+            for (int i = 0; i < diameter; ++i) {
+                const glm::dvec3 d(i - c, j - c, k - c);
+                if (glm::dot(d, d) <= r * r) out.push_back(d);
+            }
+    return out;
+}
+
+/// A moving scene for frame sequences, smooth in the frame number t (one frame = 1/30 s of
+/// motion; lattice units): a pool 40 x 7 x 40 carrying two travelling waves, a drop of diameter 8
+/// bouncing across it on ballistic arcs (period 100 frames), and six droplets of diameter 3
+/// circling above it, whose curvature lies near the level threshold. Every particle also wobbles
+/// by up to 0.05 spacings on its own period: as in a simulation, no two frames sample the
+/// surfaces alike. Particle order and count are the same in every frame.
+ParticleSet falling_drop(SceneBuilder& b, double t) {
+    constexpr double kTau = 6.283185307179586;
+    auto& rng = b.rng();
+    // Per-particle wobble: static jitter, amplitude, period and phase drawn in particle order.
+    auto wobbled = [&](glm::dvec3 p) {
+        glm::dvec3 out = p;
+        for (int a = 0; a < 3; ++a) {
+            const double still = kJitter * rng.symmetric(), amplitude = 0.05 * rng.unit();
+            const double period = 20.0 + 40.0 * rng.unit(), phase = kTau * rng.unit();
+            out[a] += still + amplitude * std::sin(kTau * t / period + phase);
+        }
+        b.place(out.x, out.y, out.z);
+    };
+    constexpr int kPool = 40, kDepth = 7;
+    for (int j = 0; j < kDepth; ++j)
+        for (int k = 0; k < kPool; ++k)
+            for (int i = 0; i < kPool; ++i) {
+                const double wave = 0.6 * std::sin(kTau * (i / 16.0 - t / 60.0)) + 0.4 * std::sin(kTau * (k / 11.0 + t / 45.0));
+                wobbled({double(i), j + wave * (j + 1) / kDepth, double(k)});  // deeper layers move less
+            }
+    // The drop: horizontal drift across the pool, vertical bounces between y = 16 and y = 28
+    // (its lowest particles 4 spacings above the crests).
+    const double phase = std::fmod(t, 100.0) / 50.0 - 1.0;  // -1 .. 1 over one arc
+    const glm::dvec3 drop(8.0 + 0.12 * t, 16.0 + 12.0 * (1.0 - phase * phase), 10.0 + 0.09 * t);
+    // It oscillates between prolate and oblate (volume kept): its tips and rim sharpen and
+    // flatten, so their curvature sweeps through the level threshold.
+    const double stretch = 1.3 + 0.7 * std::sin(kTau * t / 50.0);
+    const glm::dvec3 axes(1.0 / std::sqrt(stretch), stretch, 1.0 / std::sqrt(stretch));
+    for (const glm::dvec3& d : ball_offsets(8)) wobbled(drop + d * axes);
+    // Droplets on a circle of radius 12 around the pool centre, at heights that rise and fall.
+    for (int n = 0; n < 6; ++n) {
+        const double angle = kTau * (n / 6.0 + t / 150.0);
+        const glm::dvec3 c(19.5 + 12.0 * std::cos(angle), 15.0 + 2.0 * std::sin(kTau * t / 80.0 + n), 19.5 + 12.0 * std::sin(angle));
+        const double wobble = 1.2 + 0.5 * std::sin(kTau * t / 37.0 + n);
+        const glm::dvec3 shape(1.0 / std::sqrt(wobble), wobble, 1.0 / std::sqrt(wobble));
+        for (const glm::dvec3& d : ball_offsets(4)) wobbled(c + d * shape);
+    }
+    return b.take();
+}
+
 }  // namespace
 
-std::vector<std::string> scene_names() { return {"block", "sphere", "dam-break", "pool-and-drop"}; }
+std::vector<std::string> scene_names() { return {"block", "sphere", "dam-break", "pool-and-drop", "falling-drop"}; }
 
 namespace {
 std::string known_scenes() {
@@ -128,15 +194,17 @@ std::string known_scenes() {
 }
 }  // namespace
 
-ParticleSet generate_scene(const std::string& name, float radius, std::uint64_t seed) {
+ParticleSet generate_scene(const std::string& name, float radius, std::uint64_t seed, int frame) {
     if (!std::isfinite(radius) || radius <= 0.0f)
         throw Error("scene '" + name + "': radius must be finite and > 0, got " + std::to_string(radius));
+    if (frame < 0) throw Error("scene '" + name + "': frame must be >= 0, got " + std::to_string(frame));
     SceneBuilder b(radius, seed);
     ParticleSet set;
     if (name == "block") set = block(b);
     else if (name == "sphere") set = sphere(b);
     else if (name == "dam-break") set = dam_break(b);
     else if (name == "pool-and-drop") set = pool_and_drop(b);
+    else if (name == "falling-drop") set = falling_drop(b, double(frame));
     else throw Error("unknown scene '" + name + "', expected one of: " + known_scenes());
     for (float c : set.positions)
         if (!std::isfinite(c)) throw Error("scene '" + name + "': radius " + std::to_string(radius) + " is too large for float coordinates");

@@ -28,12 +28,19 @@ std::string stats_to_json(const Stats& s, const Params& p) {
     j["peak_memory_bytes"] = s.peak_memory_bytes;
     j["device_memory_bytes"] = s.device_memory_bytes;
     j["closed"] = s.closed;
+    if (s.level_history)
+        j["level_flips"] = {{"changed", s.level_flips},
+                            {"compared", s.level_cells_compared},
+                            {"share", s.level_cells_compared ? double(s.level_flips) / double(s.level_cells_compared) : 0.0},
+                            {"held_by_hysteresis", s.level_held}};
     j["device"] = s.device;
     j["parameters"] = {{"particle_radius", p.particle_radius},
                        {"kernel_radius", p.kernel_radius},
                        {"mode", p.mode == Mode::Adaptive ? "adaptive" : "uniform"},
                        {"cell", p.cell},
-                       {"curvature_threshold", p.curvature_threshold > 0 ? p.curvature_threshold : default_curvature_threshold()}};
+                       {"normals", p.normals == NormalMode::Gradient ? "gradient" : p.normals == NormalMode::Area ? "area" : "none"},
+                       {"curvature_threshold", p.curvature_threshold > 0 ? p.curvature_threshold : default_curvature_threshold()},
+                       {"level_hysteresis", p.level_hysteresis}};
     return j.dump(2) + "\n";
 }
 

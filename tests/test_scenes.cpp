@@ -60,7 +60,7 @@ TEST_CASE("scenes are deterministic for a seed and differ between seeds", "[scen
 
 TEST_CASE("scene counts are exact, independent of the radius, between 10k and 60k", "[scenes]") {
     const std::map<std::string, std::size_t> expected = {
-        {"block", 13824}, {"sphere", 14328}, {"dam-break", 13168}, {"pool-and-drop", 30356}};
+        {"block", 13824}, {"sphere", 14328}, {"dam-break", 13168}, {"pool-and-drop", 30356}, {"falling-drop", 11672}};
     REQUIRE(trilevel::scene_names().size() == expected.size());
     for (const auto& name : trilevel::scene_names()) {
         INFO(name);

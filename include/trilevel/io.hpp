@@ -9,23 +9,23 @@
 
 namespace trilevel {
 
-/// A per-particle quantity read alongside the positions (velocity, density, ...).
-struct ParticleAttribute {
-    std::string name;           ///< as named in the file
-    int components = 1;         ///< 1 (scalar) or 3 (vector)
-    std::vector<float> values;  ///< `components` floats per particle, in particle order
-};
-
 /// Particle positions read from a file, x, y, z per particle, in file order.
 struct ParticleSet {
-    std::vector<float> positions;
+    std::vector<float> positions;                ///< x, y, z per particle, world units (as in the file)
     std::vector<ParticleAttribute> attributes;  ///< only those asked for in ReadOptions::attributes
+                                                ///< (ParticleAttribute: trilevel.hpp)
     std::size_t dropped_invalid = 0;            ///< particles dropped by ReadOptions::drop_invalid
-    std::size_t size() const { return positions.size() / 3; }
+    std::size_t size() const { return positions.size() / 3; }  ///< number of particles
 };
 
+/// What read_particles reads besides the positions.
 struct ReadOptions {
-    /// Attributes to read as well (VTK, VTU, BGEO); a name the file lacks is an Error.
+    /// Attributes to read as well; a name the file lacks is an Error listing the names it has.
+    /// VTK: POINT_DATA SCALARS/VECTORS/NORMALS and FIELD arrays of one tuple per point; VTU:
+    /// PointData arrays; BGEO: float, vector and int point attributes; PLY: a vertex property
+    /// `name`, or the triplet name_x/_y/_z (or namex/y/z). 1 or 3 components, any numeric type
+    /// (converted to float, values kept as stored: NaN is not checked). ParticleSet::attributes
+    /// follows this order; a name given twice is read once.
     std::vector<std::string> attributes;
     /// Drop particles with a NaN/Inf coordinate (counted in ParticleSet::dropped_invalid)
     /// instead of failing.
@@ -33,29 +33,40 @@ struct ReadOptions {
 };
 
 /// Reads particles by extension: .vtk (legacy, ASCII/BINARY), .vtu, .bgeo (gzip'd or not), .ply, .xyz
-/// (little-endian float32 triplets). Throws Error naming the file and what is wrong.
+/// (little-endian float32 triplets). Throws Error naming the file and what is wrong (also for a
+/// NaN/Inf coordinate unless options.drop_invalid).
 ParticleSet read_particles(const std::string& path, const ReadOptions& options = {});
 
-/// Writes particles by extension: .xyz, .ply (binary), .vtk (legacy binary). Atomic (temp + rename).
+/// Writes the positions of `particles` by extension: .xyz, .ply (binary), .vtk (legacy binary).
+/// Atomic (temp + rename). Throws Error naming the file.
 void write_particles(const std::string& path, const ParticleSet& particles);
 
+/// What write_mesh adds to the geometry.
 struct MeshWriteOptions {
     bool vertex_level = true;   ///< PLY: a `level` vertex property (2 or 3)
     bool color_levels = false;  ///< PLY: vertex colours, green = level 2, blue = level 3
 };
 
 /// Writes a mesh by extension: .ply (binary little-endian), .obj, .vtk (legacy binary POLYDATA).
+/// Normals: PLY nx ny nz, VTK NORMALS, OBJ vn. Attributes: PLY float properties `name` or
+/// `name_x name_y name_z`, VTK SCALARS or VECTORS; OBJ cannot hold them and leaves them out.
+/// An attribute name with white space or one that collides with another property is an Error.
 /// Written to a temporary file in the target directory and renamed; never leaves a partial file.
 void write_mesh(const std::string& path, const Mesh& mesh, const MeshWriteOptions& options = {});
 
-/// Reads a mesh written by write_mesh (.ply binary/ascii, .obj, .vtk); used by tests and tools.
+/// Reads a mesh written by write_mesh (.ply binary/ascii, .obj, .vtk), normals and attributes
+/// included (PLY: every vertex property but x, y, z, nx, ny, nz, level, red, green, blue is an
+/// attribute, `a_x a_y a_z` in a row a vector `a`); used by tests and tools.
 Mesh read_mesh(const std::string& path);
 
-/// Names accepted by generate_scene.
+/// Names accepted by generate_scene, in a fixed order.
 std::vector<std::string> scene_names();
 
-/// Generates a particle scene on a jittered lattice of spacing 2*radius, deterministic for a seed:
-/// "block", "sphere", "dam-break", "pool-and-drop". Throws Error for an unknown name.
-ParticleSet generate_scene(const std::string& name, float radius, std::uint64_t seed = 1);
+/// Generates a particle scene on a jittered lattice of spacing 2*radius (radius r in world units,
+/// > 0), deterministic for a seed (same seed and frame, same positions): "block", "sphere",
+/// "dam-break", "pool-and-drop" (static: `frame` is ignored) and "falling-drop", which moves
+/// smoothly with `frame` (>= 0) for frame sequences; its particle count and order are the same in
+/// every frame. Throws Error for an unknown name.
+ParticleSet generate_scene(const std::string& name, float radius, std::uint64_t seed = 1, int frame = 0);
 
 }  // namespace trilevel

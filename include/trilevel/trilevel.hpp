@@ -28,18 +28,45 @@ enum class Mode {
     Uniform,   ///< every surface cell meshed with cells of `Params::cell` (the paper's baselines)
 };
 
-/// Reconstruction parameters. Lengths are in multiples of the particle radius r unless stated.
+/// Per-vertex normals of the output mesh (Mesh::normals).
+enum class NormalMode {
+    None,      ///< no normals (Mesh::normals stays empty)
+    Gradient,  ///< grad(phi)/|grad(phi)| of the scalar field (DESIGN §3.3) at the vertex: the normal
+               ///< of the smooth surface the mesh approximates
+    Area,      ///< sum of the adjacent triangles' normals weighted by their area: the mesh's own shading normal
+};
+
+/// Reconstruction parameters. Lengths are in multiples of the particle radius r unless stated;
+/// positions (input and output) are in world units.
 struct Params {
     float particle_radius = 0.0f;      ///< r, in world units (half the rest spacing); required, > 0
     float kernel_radius = 4.0f;        ///< R, support of the SPH kernels, in r (DESIGN §2)
-    Mode mode = Mode::Adaptive;
+    Mode mode = Mode::Adaptive;        ///< see Mode
     float cell = 1.0f;                 ///< uniform mode: marching-cubes cell size in r; 4/cell must be an integer
     float curvature_threshold = 0.0f;  ///< adaptive mode: mean cell curvature (paper eq. 3) at which a
-                                       ///< coarse cell becomes level 3; <= 0 picks the calibrated default
-    std::uint64_t memory_limit_bytes = 0;  ///< budget for the largest allocations; 0: device and host limits
+                                       ///< coarse cell becomes level 3; <= 0 picks the calibrated default.
+                                       ///< Dimensionless: sum over neighbours of (1 - n_i.n_j)(1 - d/R)
+    std::uint64_t memory_limit_bytes = 0;  ///< bytes; budget for the largest allocations; 0: device and host limits
+    float level_hysteresis = 0.0f;     ///< adaptive mode, frame sequences: a coarse cell keeps its level of the
+                                       ///< previous frame until its curvature passes the threshold by this
+                                       ///< fraction of the threshold (level 3 stays 3 down to threshold (1 - h),
+                                       ///< level 2 stays 2 up to threshold (1 + h)); in [0, 1), 0 = off (each
+                                       ///< call independent of the previous). The CLI uses 0.2 for sequences:
+                                       ///< it removed 71% of the level changes between frames of the generated
+                                       ///< falling-drop without adding level-3 cells (README).
+    NormalMode normals = NormalMode::None; ///< per-vertex normals to compute (Mesh::normals)
 };
 
-/// Calibrated default of Params::curvature_threshold (see README, "Choosing the threshold").
+/// A named quantity per particle (input) or per mesh vertex (output): velocity, density, ...
+struct Attribute {
+    std::string name;           ///< as named in the file; no white space (PLY and VTK headers)
+    int components = 1;         ///< 1 (scalar) or 3 (vector)
+    std::vector<float> values;  ///< `components` floats per element, in element order
+};
+using ParticleAttribute = Attribute;  ///< values per particle, in particle order
+using VertexAttribute = Attribute;    ///< values per mesh vertex, in vertex order
+
+/// Calibrated default of Params::curvature_threshold (dimensionless; README, "Choosing the threshold").
 float default_curvature_threshold();
 
 /// Kind of a triangle in an adaptive mesh (paper Table 1: level-2, level-3 and patch triangles).
@@ -51,49 +78,62 @@ struct Mesh {
     std::vector<std::uint32_t> triangles;    ///< three vertex indices per triangle
     std::vector<std::uint8_t> vertex_level;  ///< 2 or 3: finest lattice level the vertex lies on
     std::vector<TriangleKind> triangle_kind; ///< one per triangle
+    std::vector<float> normals;              ///< x, y, z per vertex, unit length, outward; empty unless
+                                             ///< Params::normals asks for them (NormalMode::Area: zero
+                                             ///< at a vertex whose triangles all have zero area)
+    std::vector<VertexAttribute> attributes; ///< particle attributes interpolated at the vertices
 
     std::size_t vertex_count() const { return positions.size() / 3; }
     std::size_t triangle_count() const { return triangles.size() / 3; }
 };
 
-/// What one reconstruction did and cost (DESIGN §10).
+/// What one reconstruction did and cost (DESIGN §10). Counts unless stated; cells are coarse cells
+/// of 4r, the "level" of a cell is the lattice it is meshed on (2: step 2r, 3: step r).
 struct Stats {
-    std::size_t particles = 0;
-    std::size_t surface_particles = 0;
-    std::size_t splash_particles = 0;
+    std::size_t particles = 0;              ///< input particles
+    std::size_t surface_particles = 0;      ///< particles near the surface (colour-field gradient, DESIGN §3.1)
+    std::size_t splash_particles = 0;       ///< particles with fewer than 3 neighbours within R
     std::size_t surface_cells = 0;          ///< coarse cells after band closure
-    std::size_t surface_cells_level2 = 0;
-    std::size_t surface_cells_level3 = 0;
-    std::size_t splash_cells = 0;
+    std::size_t surface_cells_level2 = 0;   ///< of those, cells meshed on the 2r lattice
+    std::size_t surface_cells_level3 = 0;   ///< of those, cells meshed on the r lattice
+    std::size_t splash_cells = 0;           ///< cells forced to level 3 by a nearby splash or thin particle
     std::size_t band_closure_cells = 0;     ///< coarse cells added by band closure (DESIGN §7)
     std::size_t fine_points = 0;            ///< unique fine lattice points evaluated
     std::size_t fine_points_level2 = 0;     ///< of those, points on the level-2 lattice
     std::size_t fine_points_level3 = 0;     ///< of those, points only on the level-3 lattice
-    std::size_t vertices = 0;
-    std::size_t triangles = 0;
-    std::size_t triangles_level2 = 0;
-    std::size_t triangles_level3 = 0;
-    std::size_t triangles_patch = 0;
-    std::vector<std::pair<std::string, double>> time_ms;  ///< per stage in pipeline order, then "total"
-    std::vector<std::pair<std::string, double>> kernel_ms; ///< OpenCL profiling time per kernel
-    std::uint64_t peak_memory_bytes = 0;   ///< process peak resident memory after the run
-    std::uint64_t device_memory_bytes = 0; ///< device buffers allocated during the run (an upper bound)
+    std::size_t vertices = 0;               ///< of the mesh (Mesh::vertex_count)
+    std::size_t triangles = 0;              ///< of the mesh; the sum of the three kinds below
+    std::size_t triangles_level2 = 0;       ///< TriangleKind::Level2
+    std::size_t triangles_level3 = 0;       ///< TriangleKind::Level3
+    std::size_t triangles_patch = 0;        ///< TriangleKind::Patch (crack closing, DESIGN §8)
+    std::vector<std::pair<std::string, double>> time_ms;  ///< milliseconds (wall) per stage in pipeline order, then "total"
+    std::vector<std::pair<std::string, double>> kernel_ms; ///< milliseconds of OpenCL profiling time per kernel
+    std::uint64_t peak_memory_bytes = 0;   ///< bytes; process peak resident memory after the run
+    std::uint64_t device_memory_bytes = 0; ///< bytes of device buffers allocated during the run (an upper bound)
     bool closed = false;                   ///< every edge used twice in opposite directions
+    /// Temporal coherence (adaptive mode, every frame after the first of a sequence): coarse cells
+    /// this frame shares with the previous one, how many of those changed level, and how many
+    /// cells Params::level_hysteresis held at their previous level.
+    bool level_history = false;            ///< a previous frame was compared (the three below are set)
+    std::size_t level_cells_compared = 0;
+    std::size_t level_flips = 0;
+    std::size_t level_held = 0;
     std::string device;                    ///< the OpenCL device that ran the kernels
 };
 
-/// Writes the statistics as a JSON object (keys as in README "Statistics").
+/// Writes the statistics as a JSON object (keys as in README "Statistics"), with `params` under
+/// "parameters" (the curvature threshold actually used).
 std::string stats_to_json(const Stats& stats, const Params& params);
 
 /// An OpenCL device as listed by `trilevel devices`.
 struct DeviceInfo {
     int index = 0;            ///< global index over all platforms, as accepted by --device
-    std::string platform;
-    std::string name;
+    std::string platform;     ///< OpenCL platform name, e.g. "Portable Computing Language"
+    std::string name;         ///< device name, as in Stats::device
     std::string type;         ///< "GPU", "CPU", "ACCELERATOR", "OTHER"
-    unsigned compute_units = 0;
-    std::uint64_t global_memory = 0;
-    std::uint64_t max_allocation = 0;
+    unsigned compute_units = 0;       ///< CL_DEVICE_MAX_COMPUTE_UNITS
+    std::uint64_t global_memory = 0;  ///< bytes (CL_DEVICE_GLOBAL_MEM_SIZE)
+    std::uint64_t max_allocation = 0; ///< bytes, largest single buffer (CL_DEVICE_MAX_MEM_ALLOC_SIZE)
     bool int64_atomics = false; ///< cl_khr_int64_base_atomics, required
 };
 
@@ -110,9 +150,27 @@ public:
     Reconstructor(Reconstructor&&) noexcept;
     Reconstructor& operator=(Reconstructor&&) noexcept;
 
-    /// `xyz` holds `count` particles as x, y, z floats. Throws Error on bad input or resources.
+    /// `xyz` holds `count` particles as x, y, z floats in world units (finite; read only during the
+    /// call). `params` as documented there; `stats`, when not null, receives what the run did and
+    /// cost. Returns the closed mesh. Throws Error on bad input or resources.
+    /// Successive calls are taken as successive frames of one sequence: in adaptive mode the levels
+    /// of each frame are remembered for the next (used when Params::level_hysteresis > 0; reported
+    /// in Stats::level_flips).
     Mesh reconstruct(const float* xyz, std::size_t count, const Params& params, Stats* stats = nullptr);
 
+    /// Forgets the previous frame's levels: call before the first frame of a new sequence (or
+    /// between unrelated inputs) so that it is reconstructed as if alone. A change of radius,
+    /// kernel radius, mode or cell resets the history too.
+    void reset_history();
+    /// The same, and every attribute interpolated at the mesh vertices (Mesh::attributes, same
+    /// order) with Shepard-normalised SPH weights: A(v) = sum_j k_j A_j / sum_j k_j, with the
+    /// field's kernel k_j = (1 - |v - x_j|^2 / R^2)^3 over the particles within R; exact for
+    /// constant attributes. A vertex with no particle within R takes its nearest particle's value.
+    /// Each attribute needs `components` (1 or 3) finite values per particle and a distinct name.
+    Mesh reconstruct(const float* xyz, std::size_t count, const Params& params, Stats* stats,
+                     const std::vector<ParticleAttribute>& attributes);
+
+    /// The OpenCL device this Reconstructor runs on.
     const DeviceInfo& device() const;
 
 private:

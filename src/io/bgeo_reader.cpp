@@ -1,6 +1,11 @@
 // Houdini classic geometry (.bgeo, "BgeoV" version 5) as SPlisHSPlasH/Partio write it,
 // gzip'd or plain: big-endian header, point attribute table, then one record per point
 // holding P as x y z w (homogeneous, w = 1 in practice) and the other point attributes.
+// A gzip'd file is inflated only as far as the reader needs, so that a header claiming more
+// points than the compressed bytes could hold is an error before any large inflate.
+#include <algorithm>
+#include <cmath>
+
 #include <zlib.h>
 
 #include "io/io_common.hpp"
@@ -9,110 +14,206 @@
 namespace trilevel::io {
 namespace {
 
-/// Inflates a gzip stream (possibly several members); deflate's ratio bounds the output.
-std::string gunzip(const std::string& path, const std::string& in) {
-    z_stream zs{};
-    if (inflateInit2(&zs, 16 + MAX_WBITS) != Z_OK) fail(path, "cannot initialise zlib");
-    std::string out;
-    out.resize(std::max<std::size_t>(in.size() * 4, 1 << 16));
-    zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in.data()));
-    zs.avail_in = static_cast<uInt>(in.size());  // files above 4 GiB are fed in pieces below
-    std::size_t fed = in.size() > UINT32_MAX ? UINT32_MAX : in.size();
-    zs.avail_in = static_cast<uInt>(fed);
-    std::size_t produced = 0;
-    for (;;) {
-        if (produced == out.size()) out.resize(out.size() * 2);
-        const std::size_t room = std::min<std::size_t>(out.size() - produced, UINT32_MAX);
-        zs.next_out = reinterpret_cast<Bytef*>(out.data() + produced);
-        zs.avail_out = static_cast<uInt>(room);
-        const int rc = inflate(&zs, Z_NO_FLUSH);
-        produced += room - zs.avail_out;
-        if (zs.avail_in == 0 && fed < in.size()) {
-            const std::size_t more = std::min<std::size_t>(in.size() - fed, UINT32_MAX);
-            zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in.data() + fed));
-            zs.avail_in = static_cast<uInt>(more);
-            fed += more;
-        }
-        if (rc == Z_STREAM_END) {
-            if (zs.avail_in == 0 && fed == in.size()) break;
-            inflateReset(&zs);  // another gzip member follows
-            continue;
-        }
-        if (rc != Z_OK && rc != Z_BUF_ERROR) {
-            const std::string msg = zs.msg ? zs.msg : zError(rc);
-            const std::size_t at = fed - zs.avail_in;
-            inflateEnd(&zs);
-            fail(path, "offset " + std::to_string(at) + ": bad gzip stream (" + msg + ")");
-        }
-        if (rc == Z_BUF_ERROR && zs.avail_in == 0 && fed == in.size()) {
-            inflateEnd(&zs);
-            fail(path, "offset " + std::to_string(in.size()) + ": truncated gzip stream");
-        }
+/// The (decompressed) bytes of a BGEO file, inflated on demand.
+class BgeoBytes {
+public:
+    BgeoBytes(const std::string& path, const std::string& file) : path_(path), file_(file) {
+        gz_ = file.size() >= 2 && static_cast<unsigned char>(file[0]) == 0x1f && static_cast<unsigned char>(file[1]) == 0x8b;
+        if (!gz_) return;
+        if (inflateInit2(&zs_, 16 + MAX_WBITS) != Z_OK) fail(path, "cannot initialise zlib");
+        open_ = true;
     }
-    inflateEnd(&zs);
-    out.resize(produced);
-    return out;
-}
+    ~BgeoBytes() {
+        if (open_) inflateEnd(&zs_);
+    }
+    BgeoBytes(const BgeoBytes&) = delete;
+    BgeoBytes& operator=(const BgeoBytes&) = delete;
+
+    bool gzipped() const { return gz_; }
+    const char* data() const { return gz_ ? out_.data() : file_.data(); }
+    std::size_t size() const { return gz_ ? out_.size() : file_.size(); }  ///< bytes available so far
+
+    /// The most bytes the file can hold once decompressed: its size, or deflate's best ratio.
+    std::uint64_t max_size() const { return gz_ ? max_inflated_size(file_.size()) : file_.size(); }
+
+    /// Makes the first n bytes available; false when the data ends before (Error for bad gzip).
+    bool ensure(std::uint64_t n) {
+        if (!gz_) return n <= file_.size();
+        while (out_.size() < n && !ended_) {
+            const std::size_t have = out_.size();
+            const std::size_t want = static_cast<std::size_t>(std::min<std::uint64_t>(n, max_size()));
+            out_.resize(std::max(want, have + 4096));
+            const std::size_t got = inflate_into(out_.data() + have, out_.size() - have);
+            out_.resize(have + got);
+        }
+        return out_.size() >= n;
+    }
+
+    /// Inflates what follows the bytes read (up to `limit` bytes, discarded) so that a corrupt
+    /// stream or CRC is still an Error; stops quietly at the limit (data after the points).
+    void drain(std::uint64_t limit) {
+        std::vector<char> scratch(1 << 16);
+        for (std::uint64_t done = 0; gz_ && !ended_ && done < limit;) done += inflate_into(scratch.data(), scratch.size());
+    }
+
+private:
+    /// Inflates up to `room` bytes into dst; handles several gzip members and inputs over 4 GiB.
+    std::size_t inflate_into(char* dst, std::size_t room) {
+        zs_.next_out = reinterpret_cast<Bytef*>(dst);
+        zs_.avail_out = static_cast<uInt>(std::min<std::size_t>(room, UINT32_MAX));
+        const std::size_t start = zs_.avail_out;
+        while (zs_.avail_out > 0 && !ended_) {
+            if (zs_.avail_in == 0 && fed_ < file_.size()) {
+                const std::size_t more = std::min<std::size_t>(file_.size() - fed_, UINT32_MAX);
+                zs_.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(file_.data() + fed_));
+                zs_.avail_in = static_cast<uInt>(more);
+                fed_ += more;
+            }
+            const int rc = inflate(&zs_, Z_NO_FLUSH);
+            if (rc == Z_STREAM_END) {
+                if (zs_.avail_in == 0 && fed_ == file_.size()) ended_ = true;
+                else inflateReset(&zs_);  // another gzip member follows
+                continue;
+            }
+            if (rc == Z_BUF_ERROR && zs_.avail_in == 0 && fed_ == file_.size())
+                fail(path_, "offset " + std::to_string(file_.size()) + ": truncated gzip stream");
+            if (rc != Z_OK && rc != Z_BUF_ERROR)
+                fail(path_, "offset " + std::to_string(fed_ - zs_.avail_in) + ": bad gzip stream (" +
+                                (zs_.msg ? zs_.msg : zError(rc)) + ")");
+        }
+        return start - zs_.avail_out;
+    }
+
+    const std::string& path_;
+    const std::string& file_;
+    bool gz_ = false, open_ = false, ended_ = false;
+    z_stream zs_{};
+    std::size_t fed_ = 0;
+    std::string out_;
+};
 
 /// Bounds-checked big-endian reads over the decompressed bytes.
 struct BgeoCursor {
     const std::string& path;
-    const std::string& data;
+    BgeoBytes& bytes;
     std::size_t pos = 0;
 
-    void need(std::size_t n, const char* what) const {
-        if (data.size() - pos < n)
-            fail(path, "offset " + std::to_string(pos) + " (uncompressed): truncated " + what);
+    std::string where() const { return "offset " + std::to_string(pos) + (bytes.gzipped() ? " (uncompressed)" : ""); }
+    void need(std::uint64_t n, const char* what) {
+        if (!bytes.ensure(pos + n)) fail(path, where() + ": truncated " + what);
     }
-    std::int32_t i32(const char* what) { need(4, what); pos += 4; return load<std::int32_t>(data.data() + pos - 4, true); }
-    std::uint16_t u16(const char* what) { need(2, what); pos += 2; return load<std::uint16_t>(data.data() + pos - 2, true); }
+    std::int32_t i32(const char* what) { need(4, what); pos += 4; return load<std::int32_t>(bytes.data() + pos - 4, true); }
+    std::uint16_t u16(const char* what) { need(2, what); pos += 2; return load<std::uint16_t>(bytes.data() + pos - 2, true); }
     void skip(std::size_t n, const char* what) { need(n, what); pos += n; }
+    std::string str(std::size_t n, const char* what) { need(n, what); pos += n; return std::string(bytes.data() + pos - n, n); }
 };
 
-/// Skips one attribute definition; returns its size in 32-bit words of a point record.
-std::size_t skip_attribute(BgeoCursor& cur) {
-    cur.skip(cur.u16("attribute name length"), "attribute name");
-    const std::size_t size = cur.u16("attribute size");
-    const std::size_t at = cur.pos;
-    const std::int32_t type = cur.i32("attribute type");
-    if (type == 0 || type == 1 || type == 5) {  // float, int, vector: `size` default values
-        cur.skip(4 * size, "attribute defaults");
-    } else if (type == 4) {  // indexed string: the string table
+/// A point attribute: name, type (0 float, 1 int, 4 indexed string, 5 vector), size in 32-bit
+/// words and word offset in the point record.
+struct BgeoAttribute {
+    std::string name;
+    std::int32_t type = 0;
+    std::size_t size = 0, offset = 0;
+    std::size_t at = 0;  ///< file offset of the definition, for messages
+};
+
+/// Reads one attribute definition (skipping its defaults or string table).
+BgeoAttribute read_attribute(BgeoCursor& cur, std::size_t offset) {
+    BgeoAttribute a;
+    a.at = cur.pos;
+    a.name = cur.str(cur.u16("attribute name length"), "attribute name");
+    a.size = cur.u16("attribute size");
+    a.offset = offset;
+    const std::string where = cur.where();
+    a.type = cur.i32("attribute type");
+    if (a.type == 0 || a.type == 1 || a.type == 5) {  // float, int, vector: `size` default values
+        cur.skip(4 * a.size, "attribute defaults");
+    } else if (a.type == 4) {  // indexed string: the string table
         const std::int32_t n = cur.i32("string table size");
-        if (n < 0) fail(cur.path, "offset " + std::to_string(at) + " (uncompressed): negative string count");
+        if (n < 0) fail(cur.path, where + ": negative string count " + std::to_string(n) + " for attribute '" + a.name + "'");
         for (std::int32_t i = 0; i < n; ++i) cur.skip(cur.u16("string length"), "string");
     } else {
-        fail(cur.path, "offset " + std::to_string(at) + " (uncompressed): unsupported attribute type " + std::to_string(type));
+        fail(cur.path, where + ": attribute '" + a.name + "' has unsupported type " + std::to_string(a.type) +
+                           ", expected 0 (float), 1 (int), 4 (string) or 5 (vector)");
     }
-    return size;
+    return a;
+}
+
+/// The requested attributes of n point records of `record` bytes starting at `base`.
+void read_attributes(const std::string& path, const char* base, std::size_t n, std::size_t record,
+                     const std::vector<BgeoAttribute>& table, AttributeSink& sink) {
+    for (const auto& a : table) {
+        const int index = sink.wanted(a.name);
+        if (index < 0) continue;
+        const std::string where = "offset " + std::to_string(a.at);
+        if (a.type == 4) fail(path, where + ": attribute '" + a.name + "' holds strings, expected numbers");
+        if (a.size != 1 && a.size != 3)
+            fail(path, where + ": attribute '" + a.name + "' has " + std::to_string(a.size) + " components, expected 1 or 3");
+        std::vector<float> v(n * a.size);
+        for (std::size_t i = 0; i < n; ++i)
+            for (std::size_t k = 0; k < a.size; ++k) {
+                const char* p = base + i * record + 4 * (a.offset + k);
+                v[i * a.size + k] = a.type == 1 ? static_cast<float>(load<std::int32_t>(p, true)) : load<float>(p, true);
+            }
+        sink.append(index, static_cast<int>(a.size), v, where);
+    }
 }
 
 }  // namespace
 
-std::vector<float> read_bgeo_points(const std::string& path, const std::string& file) {
-    const bool gz = file.size() >= 2 && static_cast<unsigned char>(file[0]) == 0x1f && static_cast<unsigned char>(file[1]) == 0x8b;
-    const std::string data = gz ? gunzip(path, file) : file;
-    if (data.size() < 5 || data.compare(0, 5, "BgeoV") != 0)
-        fail(path, "not a classic BGEO file: expected magic 'BgeoV'" + std::string(gz ? " after gunzip" : ""));
-    BgeoCursor cur{path, data, 5};
+ParticleSet read_bgeo(const ReadRequest& r) {
+    const std::string& path = r.path;
+    BgeoBytes bytes(path, r.data);
+    BgeoCursor cur{path, bytes, 0};
+    if (!bytes.ensure(5) || std::string_view(bytes.data(), 5) != "BgeoV")
+        fail(path, "not a classic BGEO file: expected magic 'BgeoV'" + std::string(bytes.gzipped() ? " after gunzip" : ""));
+    cur.pos = 5;
     const std::int32_t version = cur.i32("header");
     if (version != 5) fail(path, "offset 5: BGEO version " + std::to_string(version) + " unsupported, expected 5");
     std::int32_t counts[8];
     for (auto& c : counts) c = cur.i32("header");
     const std::int32_t n = counts[0], attrs = counts[4];
-    if (n < 0 || attrs < 0) fail(path, "offset 9: corrupt BGEO header (negative point or attribute count)");
-    std::size_t stride = 4;  // P: x y z w
-    for (std::int32_t a = 0; a < attrs; ++a) stride += skip_attribute(cur);
-    const std::size_t record = stride * 4;
-    if (static_cast<std::uint64_t>(n) > (data.size() - cur.pos) / record)
-        fail(path, "offset " + std::to_string(cur.pos) + " (uncompressed): truncated point data: " + std::to_string(n) +
-                       " points of " + std::to_string(record) + " bytes need " + std::to_string(std::uint64_t(n) * record) +
-                       ", " + std::to_string(data.size() - cur.pos) + " left");
-    std::vector<float> out(3 * static_cast<std::size_t>(n));
+    if (n < 0 || attrs < 0)
+        fail(path, "offset 9: corrupt BGEO header: negative " + std::string(n < 0 ? "point" : "point attribute") + " count " +
+                       std::to_string(n < 0 ? n : attrs));
+    // each definition takes 8 bytes at least (name length, size, type): bound the table first
+    if (static_cast<std::uint64_t>(attrs) > (bytes.max_size() - std::min<std::uint64_t>(cur.pos, bytes.max_size())) / 8)
+        fail(path, "offset 25: point attribute count " + std::to_string(attrs) + " needs at least " +
+                       byte_size_text(8 * std::uint64_t(attrs)) + " but the file has " + byte_size_text(r.data.size()));
+    std::vector<BgeoAttribute> table;
+    std::size_t stride = 4;  // P: x y z w (32-bit words); each attribute adds at most 65535
+    for (std::int32_t a = 0; a < attrs; ++a) {
+        table.push_back(read_attribute(cur, stride));
+        stride += table.back().size;
+    }
+    const std::uint64_t record = std::uint64_t(stride) * 4;
+    const std::uint64_t room = bytes.max_size() > cur.pos ? bytes.max_size() - cur.pos : 0;
+    if (static_cast<std::uint64_t>(n) > room / record) {
+        const std::uint64_t need = static_cast<std::uint64_t>(n) * record;  // < 2^31 * 2^50: no overflow
+        fail(path, cur.where() + ": point count " + std::to_string(n) + " of " + std::to_string(record) + " bytes needs " +
+                       byte_size_text(need) + " but the file has " + byte_size_text(r.data.size()) +
+                       (bytes.gzipped() ? " (at most " + byte_size_text(bytes.max_size()) + " inflated)" : ""));
+    }
+    const std::uint64_t need = static_cast<std::uint64_t>(n) * record;
+    if (!bytes.ensure(cur.pos + need))
+        fail(path, cur.where() + ": truncated point data: " + std::to_string(n) + " points of " + std::to_string(record) +
+                       " bytes need " + byte_size_text(need) + ", " + byte_size_text(bytes.size() - cur.pos) + " left");
+    const char* base = bytes.data() + cur.pos;
+    ParticleSet set;
+    set.positions.resize(3 * static_cast<std::size_t>(n));
     for (std::size_t i = 0; i < static_cast<std::size_t>(n); ++i)
-        for (std::size_t k = 0; k < 3; ++k) out[3 * i + k] = load<float>(data.data() + cur.pos + i * record + 4 * k, true);
-    check_finite(path, out);
-    return out;
+        for (std::size_t k = 0; k < 3; ++k) set.positions[3 * i + k] = load<float>(base + i * record + 4 * k, true);
+    for (std::size_t i = 0; !r.keep_invalid && i < set.positions.size(); ++i)
+        if (!std::isfinite(set.positions[i]))
+            fail(path, "offset " + std::to_string(cur.pos + (i / 3) * record + 4 * (i % 3)) + (bytes.gzipped() ? " (uncompressed)" : "") +
+                           ": particle " + std::to_string(i / 3) + ": non-finite coordinate (NaN or Inf)");
+    AttributeSink sink(r);
+    read_attributes(path, base, static_cast<std::size_t>(n), record, table, sink);
+    set.attributes = sink.finish(set.size());
+    bytes.drain(std::max<std::uint64_t>(need, 64 << 20));  // the CRC of the rest, unless it is huge
+    return set;
 }
+
+std::vector<float> read_bgeo_points(const std::string& path, const std::string& data) { return read_bgeo({path, data, {}, false}).positions; }
 
 }  // namespace trilevel::io

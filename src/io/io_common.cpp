@@ -8,6 +8,11 @@
 #include <filesystem>
 #include <limits>
 
+#include <csignal>
+#include <cstdlib>
+#include <cstring>
+
+#include <fcntl.h>
 #include <unistd.h>
 
 namespace fs = std::filesystem;
@@ -17,8 +22,10 @@ namespace trilevel::io {
 void fail(const std::string& path, const std::string& what) {
     // quoted file content may hold anything: keep the message one printable line of sane length
     std::string msg = what.size() > 400 ? what.substr(0, 400) + "..." : what;
-    for (char& c : msg)
+    for (char& c : msg) {  // control bytes and (quoted binary) non-ASCII bytes would garble a terminal
         if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = ' ';
+        if (static_cast<unsigned char>(c) >= 0x80) c = '?';
+    }
     throw Error(path + ": " + msg);
 }
 
@@ -27,6 +34,9 @@ void require_file(const std::string& path) {
     const fs::file_status st = fs::status(path, ec);
     if (!fs::exists(st)) fail(path, "no such file");
     if (fs::is_directory(st)) fail(path, "is a directory, expected a file");
+    // a device such as /dev/zero never ends: only files and pipes are read
+    if (fs::is_character_file(st) || fs::is_block_file(st) || fs::is_socket(st))
+        fail(path, "is a device or socket, expected a file");
 }
 
 std::string read_file(const std::string& path) {
@@ -56,17 +66,44 @@ std::string extension_of(const std::string& path) {
     return ext;
 }
 
-void check_finite(const std::string& path, const std::vector<float>& xyz) {
-    for (std::size_t i = 0; i < xyz.size(); ++i)
-        if (!std::isfinite(xyz[i]))
-            fail(path, "particle " + std::to_string(i / 3) + ": non-finite coordinate (NaN or Inf)");
+std::string ArrayLocation::at(std::size_t value_index, std::size_t value_size) const {
+    if (base != SIZE_MAX) return "offset " + std::to_string(base + value_index * value_size) + ": ";
+    return label.empty() ? std::string() : label + ": ";
 }
 
-float to_float_checked(const std::string& path, double v, std::size_t value_index) {
+void check_finite(const std::string& path, const std::vector<float>& xyz, const ArrayLocation& where) {
+    for (std::size_t i = 0; i < xyz.size(); ++i)
+        if (!std::isfinite(xyz[i]))
+            fail(path, where.at(i, 4) + "particle " + std::to_string(i / 3) + ": non-finite coordinate (NaN or Inf)");
+}
+
+float to_float_checked(const std::string& path, double v, std::size_t value_index, const std::string& where) {
     if (!std::isfinite(v) || std::fabs(v) > std::numeric_limits<float>::max())
-        fail(path, "particle " + std::to_string(value_index / 3) +
+        fail(path, where + "particle " + std::to_string(value_index / 3) +
                        ": coordinate is not a finite float (NaN, Inf or out of range)");
     return static_cast<float>(v);
+}
+
+void missing_attribute(const std::string& path, const std::string& name, const std::vector<std::string>& available) {
+    std::string list;
+    for (const auto& a : available) list += (list.empty() ? "" : ", ") + a;
+    fail(path, "no point attribute '" + name + "'" + (list.empty() ? " (the file has none)" : " (the file has: " + list + ")"));
+}
+
+std::string byte_size_text(std::uint64_t bytes) {
+    static const char* units[] = {"bytes", "kB", "MB", "GB", "TB", "PB", "EB"};
+    double v = static_cast<double>(bytes);
+    int u = 0;
+    while (v >= 1000.0 && u < 6) { v /= 1000.0; ++u; }
+    char buf[32];
+    std::snprintf(buf, sizeof buf, u == 0 ? "%.0f %s" : "%.3g %s", v, units[u]);
+    return buf;
+}
+
+std::uint64_t mul_checked(const std::string& path, const std::string& where, std::uint64_t a, std::uint64_t b,
+                          const char* what) {
+    if (a != 0 && b > UINT64_MAX / a) fail(path, where + ": " + what + " overflows");
+    return a * b;
 }
 
 std::size_t scalar_size(Scalar t) {
@@ -94,16 +131,28 @@ double load_scalar(const char* p, Scalar t, bool big) {
     return 0.0;
 }
 
+std::vector<float> convert_values(const char* p, std::size_t count, Scalar t, bool big) {
+    std::vector<float> out(count);
+    const std::size_t size = scalar_size(t);
+    if (t == Scalar::F32) {
+        for (std::size_t i = 0; i < count; ++i) out[i] = load<float>(p + i * 4, big);
+    } else {
+        for (std::size_t i = 0; i < count; ++i) out[i] = narrow_to_float(load_scalar(p + i * size, t, big));
+    }
+    return out;
+}
+
 std::vector<float> convert_coords(const std::string& path, const char* p, std::size_t count, Scalar t,
-                                  bool big) {
+                                  bool big, bool finite_only, const ArrayLocation& where) {
+    if (!finite_only) return convert_values(p, count, t, big);  // the caller drops NaN/Inf particles
     std::vector<float> out(count);
     const std::size_t size = scalar_size(t);
     if (t == Scalar::F32) {  // the common case: no double round trip
         for (std::size_t i = 0; i < count; ++i) out[i] = load<float>(p + i * 4, big);
-        check_finite(path, out);
+        check_finite(path, out, where);
         return out;
     }
-    for (std::size_t i = 0; i < count; ++i) out[i] = to_float_checked(path, load_scalar(p + i * size, t, big), i);
+    for (std::size_t i = 0; i < count; ++i) out[i] = to_float_checked(path, load_scalar(p + i * size, t, big), i, where.at(i, size));
     return out;
 }
 
@@ -139,6 +188,38 @@ std::string upper(std::string_view s) {
     return u;
 }
 
+namespace {
+
+// Named temporaries of live writers, for the signal handler: it may only read atomics and call
+// unlink (async-signal-safe). Each slot points at the writer's own temp_ string.
+constexpr int kTempSlots = 64;
+std::atomic<const char*> g_temp_names[kTempSlots];
+
+void remove_temporaries_and_die(int sig) {
+    for (auto& slot : g_temp_names)
+        if (const char* name = slot.load()) ::unlink(name);
+    std::signal(sig, SIG_DFL);
+    std::raise(sig);
+}
+
+}  // namespace
+
+void remove_temporaries_on_signals() {
+    for (int sig : {SIGINT, SIGTERM, SIGHUP}) std::signal(sig, remove_temporaries_and_die);
+}
+
+void AtomicWriter::publish_temp_name(bool on) {
+    if (on) {
+        for (int i = 0; i < kTempSlots && slot_ < 0; ++i) {
+            const char* expected = nullptr;
+            if (g_temp_names[i].compare_exchange_strong(expected, temp_.c_str())) slot_ = i;
+        }
+    } else if (slot_ >= 0) {
+        g_temp_names[slot_].store(nullptr);
+        slot_ = -1;
+    }
+}
+
 AtomicWriter::AtomicWriter(const std::string& path) : path_(path) {
     const fs::path target(path);
     if (target.filename().empty()) fail(path, "output path names no file");
@@ -155,17 +236,37 @@ AtomicWriter::AtomicWriter(const std::string& path) : path_(path) {
     name += '.';
     name += std::to_string(counter++);
     temp_ = (dir / name).string();
-    file_ = std::fopen(temp_.c_str(), "wb");
-    if (!file_) fail(path, std::string("cannot create output file: ") + std::strerror(errno));
+#ifdef O_TMPFILE
+    // Unnamed until commit; linking it needs /proc/self/fd (linkat with AT_EMPTY_PATH needs a privilege).
+    // TRILEVEL_NO_TMPFILE=1 (tests) takes the named-temporary path file systems without O_TMPFILE take.
+    const char* no_tmpfile = std::getenv("TRILEVEL_NO_TMPFILE");
+    if (!(no_tmpfile && *no_tmpfile == '1') && ::access("/proc/self/fd", X_OK) == 0) {
+        const int fd = ::open(dir.empty() ? "." : dir.c_str(), O_TMPFILE | O_WRONLY | O_CLOEXEC, 0666);
+        if (fd >= 0) {
+            file_ = ::fdopen(fd, "wb");
+            if (!file_) ::close(fd);
+            unnamed_ = file_ != nullptr;
+        }
+    }
+#endif
+    if (!file_) {
+        publish_temp_name(true);  // before the file exists: a signal right after fopen still removes it
+        file_ = std::fopen(temp_.c_str(), "wb");
+        if (!file_) {
+            publish_temp_name(false);
+            fail(path, std::string("cannot create output file: ") + std::strerror(errno));
+        }
+    }
     buffer_.reserve(std::size_t(4) << 20);
 }
 
 AtomicWriter::~AtomicWriter() {
     if (file_) std::fclose(file_);
-    if (!committed_) {
+    if (!committed_ && !unnamed_) {
         std::error_code ec;
         fs::remove(temp_, ec);
     }
+    publish_temp_name(false);
 }
 
 void AtomicWriter::flush() {
@@ -188,13 +289,22 @@ void AtomicWriter::write(const void* data, std::size_t n) {
 void AtomicWriter::commit() {
     flush();
     const bool bad = std::fflush(file_) != 0 || std::ferror(file_);
+    if (bad) fail(path_, std::string("write failed: ") + std::strerror(errno));
+    if (unnamed_) {  // give the finished file its temporary name, then rename it over the target
+        const std::string self = "/proc/self/fd/" + std::to_string(::fileno(file_));
+        publish_temp_name(true);  // before the name exists, as above
+        if (::linkat(AT_FDCWD, self.c_str(), AT_FDCWD, temp_.c_str(), AT_SYMLINK_FOLLOW) != 0)
+            fail(path_, std::string("cannot link the finished temporary file: ") + std::strerror(errno));
+        unnamed_ = false;  // from here on temp_ names a file, removed if anything below fails
+    }
     const bool close_bad = std::fclose(file_) != 0;
     file_ = nullptr;
-    if (bad || close_bad) fail(path_, std::string("write failed: ") + std::strerror(errno));
+    if (close_bad) fail(path_, std::string("write failed: ") + std::strerror(errno));
     std::error_code ec;
     fs::rename(temp_, path_, ec);
     if (ec) fail(path_, "cannot rename temporary file into place: " + ec.message());
     committed_ = true;
+    publish_temp_name(false);
 }
 
 }  // namespace trilevel::io

@@ -28,26 +28,71 @@ void add_polygon(const std::string& path, const std::string& where, const std::v
         for (std::size_t c : {std::size_t(0), j, j + 1}) mesh.triangles.push_back(static_cast<std::uint32_t>(idx[c]));
 }
 
+/// Attributes from the extra vertex properties, in order: `a_x a_y a_z` in a row make the vector
+/// `a`, any other property a scalar (write_mesh's convention).
+std::vector<VertexAttribute> group_attributes(const std::vector<std::string>& names, const std::vector<std::vector<float>>& columns) {
+    std::vector<VertexAttribute> out;
+    auto base = [](const std::string& n, const char* suffix) {
+        return n.size() > 2 && n.compare(n.size() - 2, 2, suffix) == 0 ? n.substr(0, n.size() - 2) : std::string();
+    };
+    for (std::size_t i = 0; i < names.size();) {
+        const std::string b = base(names[i], "_x");
+        if (!b.empty() && i + 2 < names.size() && base(names[i + 1], "_y") == b && base(names[i + 2], "_z") == b) {
+            VertexAttribute a{b, 3, std::vector<float>(3 * columns[i].size())};
+            for (std::size_t v = 0; v < columns[i].size(); ++v)
+                for (int c = 0; c < 3; ++c) a.values[3 * v + c] = columns[i + c][v];
+            out.push_back(std::move(a));
+            i += 3;
+        } else {
+            out.push_back({names[i], 1, columns[i]});
+            ++i;
+        }
+    }
+    return out;
+}
+
+/// x, y, z, optional nx, ny, nz (all three) and level; red, green, blue and lists are skipped;
+/// every other scalar property is read as a float attribute.
 void read_ply_vertices(const std::string& path, PlyValueReader& r, const PlyElement& e, Mesh& mesh) {
-    for (const char* c : {"x", "y", "z"})
-        if (std::none_of(e.props.begin(), e.props.end(), [&](const PlyProperty& p) { return p.name == c && !p.list_count; }))
-            fail(path, "PLY vertex element lacks property x, y or z");
+    auto has = [&](const char* c) {
+        return std::any_of(e.props.begin(), e.props.end(), [&](const PlyProperty& p) { return p.name == c && !p.list_count; });
+    };
+    if (!has("x") || !has("y") || !has("z")) fail(path, "PLY vertex element lacks property x, y or z");
+    const bool normals = has("nx") && has("ny") && has("nz");
+    enum Role { Skip = -1, Level = -2, Attribute = -3 };  // >= 0: slot in xyz (0..2) or normal (3..5)
+    std::vector<int> role;
+    std::vector<std::string> names;
+    for (const auto& p : e.props) {
+        const std::string& n = p.name;
+        if (p.list_count || n == "red" || n == "green" || n == "blue") role.push_back(Skip);
+        else if (n == "x" || n == "y" || n == "z") role.push_back(n[0] - 'x');
+        else if (normals && (n == "nx" || n == "ny" || n == "nz")) role.push_back(3 + n[1] - 'x');
+        else if (n == "level") role.push_back(Level);
+        else role.push_back(Attribute), names.push_back(n);
+    }
+    std::vector<std::vector<float>> columns(names.size());
     mesh.positions.reserve(3 * std::min<std::uint64_t>(e.count, r.left()));
     for (std::uint64_t i = 0; i < e.count; ++i) {
-        float xyz[3] = {0, 0, 0};
-        for (const auto& p : e.props) {
-            const int c = p.name == "x" ? 0 : p.name == "y" ? 1 : p.name == "z" ? 2 : -1;
-            if (p.list_count || (c < 0 && p.name != "level")) { r.skip(p); continue; }
-            const double v = r.next(p.type);
-            if (c >= 0) {
-                xyz[c] = to_float_checked(path, v, mesh.positions.size() + c);
-            } else {
+        float v6[6] = {0, 0, 0, 0, 0, 0};
+        std::size_t column = 0;
+        for (std::size_t k = 0; k < e.props.size(); ++k) {
+            if (role[k] == Skip) { r.skip(e.props[k]); continue; }
+            const double v = r.next(e.props[k].type);
+            if (role[k] >= 3) {
+                v6[role[k]] = static_cast<float>(v);
+            } else if (role[k] >= 0) {
+                v6[role[k]] = to_float_checked(path, v, mesh.positions.size() + role[k]);
+            } else if (role[k] == Level) {
                 if (!(v >= 0 && v <= 255)) fail(path, r.where() + ": vertex level " + number_text(v) + " out of range 0..255");
                 mesh.vertex_level.push_back(static_cast<std::uint8_t>(v));
+            } else {
+                columns[column++].push_back(static_cast<float>(v));
             }
         }
-        mesh.positions.insert(mesh.positions.end(), xyz, xyz + 3);
+        mesh.positions.insert(mesh.positions.end(), v6, v6 + 3);
+        if (normals) mesh.normals.insert(mesh.normals.end(), v6 + 3, v6 + 6);
     }
+    mesh.attributes = group_attributes(names, columns);
 }
 
 void read_ply_faces(const std::string& path, PlyValueReader& r, const PlyElement& e, Mesh& mesh) {
@@ -90,8 +135,10 @@ std::int64_t obj_index(const std::string& path, std::size_t line, std::string_vi
     return v > 0 ? static_cast<std::int64_t>(v) - 1 : static_cast<std::int64_t>(nv) + static_cast<std::int64_t>(v);
 }
 
+/// `vn` lines are taken as per-vertex normals (write_mesh's convention) when there is one per `v`.
 Mesh read_obj_mesh(const std::string& path, const std::string& data) {
     Mesh mesh;
+    std::vector<float> normals;
     std::vector<std::int64_t> idx;
     std::size_t pos = 0, line = 0;
     while (pos < data.size()) {
@@ -109,6 +156,13 @@ Mesh read_obj_mesh(const std::string& path, const std::string& data) {
                 if (!parse_double(t[k], v)) fail(path, at + ": malformed number '" + std::string(t[k]) + "'");
                 mesh.positions.push_back(to_float_checked(path, v, mesh.positions.size()));
             }
+        } else if (t[0] == "vn") {
+            if (t.size() < 4) fail(path, at + ": expected vn <x> <y> <z>");
+            for (int k = 1; k <= 3; ++k) {
+                double v;
+                if (!parse_double(t[k], v)) fail(path, at + ": malformed number '" + std::string(t[k]) + "'");
+                normals.push_back(static_cast<float>(v));
+            }
         } else if (t[0] == "f") {
             idx.clear();
             for (std::size_t k = 1; k < t.size(); ++k) idx.push_back(obj_index(path, line, t[k], mesh.vertex_count()));
@@ -116,6 +170,7 @@ Mesh read_obj_mesh(const std::string& path, const std::string& data) {
             add_polygon(path, at, idx, mesh);
         }
     }
+    if (normals.size() == mesh.positions.size()) mesh.normals = std::move(normals);
     return mesh;
 }
 
@@ -137,6 +192,11 @@ Mesh io::read_mesh_from_memory(const std::string& ext, const std::string& path, 
     Mesh mesh = ext == "ply" ? read_ply_mesh(path, data) : ext == "obj" ? read_obj_mesh(path, data) : read_vtk_mesh(path, data);
     if (!mesh.vertex_level.empty() && mesh.vertex_level.size() != mesh.vertex_count())
         fail(path, "vertex level count does not match the vertex count");
+    if (!mesh.normals.empty() && mesh.normals.size() != mesh.positions.size())
+        fail(path, "normal count does not match the vertex count");
+    for (const auto& a : mesh.attributes)
+        if (a.values.size() != std::size_t(a.components) * mesh.vertex_count())
+            fail(path, "vertex attribute '" + a.name + "' does not have one value per vertex");
     return mesh;
 }
 

@@ -1,6 +1,10 @@
 // write_mesh: .ply (binary LE, optional per-vertex level and level colours), .obj, .vtk
 // (legacy BINARY POLYDATA with a `level` point scalar). All writes are atomic and buffered.
+// Normals: PLY nx ny nz, VTK NORMALS, OBJ vn. Attributes: PLY float properties `name` or
+// `name_x name_y name_z`, VTK SCALARS / VECTORS; OBJ has no place for them and leaves them out.
+#include <algorithm>
 #include <charconv>
+#include <cmath>
 
 #include "io/io_common.hpp"
 #include "trilevel/io.hpp"
@@ -9,7 +13,10 @@ namespace trilevel {
 namespace io {
 namespace {
 
-/// Checks what the writers rely on: whole triplets, indices in range, one level per vertex.
+std::vector<std::string> attribute_properties(const std::string& path, const Mesh& mesh);
+
+/// Checks what the writers rely on: whole triplets, indices in range, one level per vertex, one
+/// normal and finite values of every attribute per vertex, names every format can hold.
 void check_mesh(const std::string& path, const Mesh& mesh) {
     if (mesh.positions.size() % 3 || mesh.triangles.size() % 3) fail(path, "mesh arrays are not triplets");
     if (!mesh.vertex_level.empty() && mesh.vertex_level.size() != mesh.vertex_count())
@@ -21,6 +28,41 @@ void check_mesh(const std::string& path, const Mesh& mesh) {
             fail(path, "triangle " + std::to_string(i / 3) + " references vertex " + std::to_string(mesh.triangles[i]) +
                            ", the mesh has " + std::to_string(nv));
     check_finite(path, mesh.positions);
+    if (!mesh.normals.empty() && mesh.normals.size() != 3 * nv)
+        fail(path, "mesh has " + std::to_string(mesh.normals.size()) + " normal components for " + std::to_string(nv) + " vertices");
+    for (float v : mesh.normals)
+        if (!std::isfinite(v)) fail(path, "mesh has a non-finite normal");
+    for (const auto& a : mesh.attributes) {
+        if (a.components != 1 && a.components != 3)
+            fail(path, "vertex attribute '" + a.name + "' has " + std::to_string(a.components) + " components, expected 1 or 3");
+        if (a.values.size() != std::size_t(a.components) * nv)
+            fail(path, "vertex attribute '" + a.name + "' has " + std::to_string(a.values.size()) + " values for " +
+                           std::to_string(nv) + " vertices");
+        for (float v : a.values)
+            if (!std::isfinite(v)) fail(path, "vertex attribute '" + a.name + "' has a non-finite value");
+    }
+    attribute_properties(path, mesh);
+}
+
+/// The PLY property names of the attributes; Error for a name a PLY or VTK header cannot hold or
+/// one that collides with another property (x, nx, level, red, ...), in any format alike so that
+/// read_mesh tells them apart.
+std::vector<std::string> attribute_properties(const std::string& path, const Mesh& mesh) {
+    std::vector<std::string> taken = {"x", "y", "z", "nx", "ny", "nz", "level", "red", "green", "blue"}, out;
+    for (const auto& a : mesh.attributes) {
+        if (a.name.empty() || std::any_of(a.name.begin(), a.name.end(), [](unsigned char c) { return c <= ' ' || c == 127; }))
+            fail(path, "vertex attribute name '" + a.name + "' is empty or holds white space or control characters");
+        std::vector<std::string> names;
+        if (a.components == 1) names = {a.name};
+        else names = {a.name + "_x", a.name + "_y", a.name + "_z"};
+        for (const auto& n : names) {
+            if (std::find(taken.begin(), taken.end(), n) != taken.end())
+                fail(path, "vertex attribute '" + a.name + "' collides with another vertex property named '" + n + "'");
+            taken.push_back(n);
+            out.push_back(n);
+        }
+    }
+    return out;
 }
 
 void level_colour(std::uint8_t level, char rgb[3]) {
@@ -29,26 +71,34 @@ void level_colour(std::uint8_t level, char rgb[3]) {
     for (int k = 0; k < 3; ++k) rgb[k] = static_cast<char>(c[k]);
 }
 
-void write_ply(AtomicWriter& out, const Mesh& mesh, const MeshWriteOptions& options) {
+void write_ply(AtomicWriter& out, const std::string& path, const Mesh& mesh, const MeshWriteOptions& options) {
     const bool levels = options.vertex_level && !mesh.vertex_level.empty();
     const bool colours = options.color_levels && !mesh.vertex_level.empty();
+    const bool normals = !mesh.normals.empty();
+    const std::vector<std::string> attribute_names = attribute_properties(path, mesh);
     std::string head = "ply\nformat binary_little_endian 1.0\ncomment trilevel surface\nelement vertex " +
                        std::to_string(mesh.vertex_count()) + "\nproperty float x\nproperty float y\nproperty float z\n";
+    if (normals) head += "property float nx\nproperty float ny\nproperty float nz\n";
     if (levels) head += "property uchar level\n";
     if (colours) head += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+    for (const auto& n : attribute_names) head += "property float " + n + "\n";
     head += "element face " + std::to_string(mesh.triangle_count()) + "\nproperty list uchar uint vertex_indices\nend_header\n";
     out.write(head);
-    if (!levels && !colours) {
+    if (!levels && !colours && !normals && attribute_names.empty()) {
         out.write(mesh.positions.data(), mesh.positions.size() * sizeof(float));
     } else {
-        char rec[16];
-        const std::size_t size = 12 + (levels ? 1 : 0) + (colours ? 3 : 0);
+        std::vector<char> rec(12 + (normals ? 12 : 0) + (levels ? 1 : 0) + (colours ? 3 : 0) + 4 * attribute_names.size());
         for (std::size_t v = 0; v < mesh.vertex_count(); ++v) {
-            std::memcpy(rec, &mesh.positions[3 * v], 12);
+            std::memcpy(rec.data(), &mesh.positions[3 * v], 12);
             std::size_t p = 12;
+            if (normals) std::memcpy(rec.data() + p, &mesh.normals[3 * v], 12), p += 12;
             if (levels) rec[p++] = static_cast<char>(mesh.vertex_level[v]);
-            if (colours) level_colour(mesh.vertex_level[v], rec + p);
-            out.write(rec, size);
+            if (colours) level_colour(mesh.vertex_level[v], rec.data() + p), p += 3;
+            for (const auto& a : mesh.attributes) {
+                std::memcpy(rec.data() + p, &a.values[v * a.components], 4 * std::size_t(a.components));
+                p += 4 * std::size_t(a.components);
+            }
+            out.write(rec.data(), rec.size());
         }
     }
     char face[13];
@@ -66,17 +116,30 @@ void append_float(std::string& s, float v) {
     s.append(buf, r.ptr);
 }
 
+/// Vertices (`v`), normals (`vn`, one per vertex, same index) and faces (`f a b c`, or `f a//a ...`
+/// with normals).
 void write_obj(AtomicWriter& out, const Mesh& mesh) {
     std::string s = "# trilevel surface\n";
+    const bool normals = !mesh.normals.empty();
     for (std::size_t v = 0; v < mesh.vertex_count(); ++v) {
         s += "v";
         for (int k = 0; k < 3; ++k) { s += ' '; append_float(s, mesh.positions[3 * v + k]); }
         s += '\n';
+        if (normals) {
+            s += "vn";
+            for (int k = 0; k < 3; ++k) { s += ' '; append_float(s, mesh.normals[3 * v + k]); }
+            s += '\n';
+        }
         if (s.size() > (1 << 20)) { out.write(s); s.clear(); }
     }
     for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
         s += "f";
-        for (int k = 0; k < 3; ++k) { s += ' '; s += std::to_string(std::uint64_t(mesh.triangles[3 * t + k]) + 1); }
+        for (int k = 0; k < 3; ++k) {
+            const std::string i = std::to_string(std::uint64_t(mesh.triangles[3 * t + k]) + 1);
+            s += ' ';
+            s += i;
+            if (normals) { s += "//"; s += i; }
+        }
         s += '\n';
         if (s.size() > (1 << 20)) { out.write(s); s.clear(); }
     }
@@ -101,10 +164,23 @@ void write_vtk(AtomicWriter& out, const std::string& path, const Mesh& mesh) {
         t += m;
     }
     out.write("\n");
-    if (mesh.vertex_level.empty()) return;
-    out.write("POINT_DATA " + std::to_string(nv) + "\nSCALARS level unsigned_char 1\nLOOKUP_TABLE default\n");
-    out.write(mesh.vertex_level.data(), nv);
-    out.write("\n");
+    if (mesh.vertex_level.empty() && mesh.normals.empty() && mesh.attributes.empty()) return;
+    out.write("POINT_DATA " + std::to_string(nv) + "\n");
+    if (!mesh.vertex_level.empty()) {
+        out.write("SCALARS level unsigned_char 1\nLOOKUP_TABLE default\n");
+        out.write(mesh.vertex_level.data(), nv);
+        out.write("\n");
+    }
+    if (!mesh.normals.empty()) {
+        out.write("NORMALS normals float\n");
+        write_floats(out, mesh.normals.data(), mesh.normals.size(), true);
+        out.write("\n");
+    }
+    for (const auto& a : mesh.attributes) {
+        out.write(a.components == 1 ? "SCALARS " + a.name + " float 1\nLOOKUP_TABLE default\n" : "VECTORS " + a.name + " float\n");
+        write_floats(out, a.values.data(), a.values.size(), true);
+        out.write("\n");
+    }
 }
 
 }  // namespace
@@ -117,7 +193,7 @@ void write_mesh(const std::string& path, const Mesh& mesh, const MeshWriteOption
         fail(path, "unknown mesh output extension '" + ext + "', expected .ply, .obj or .vtk");
     check_mesh(path, mesh);
     AtomicWriter out(path);
-    if (ext == "ply") write_ply(out, mesh, options);
+    if (ext == "ply") write_ply(out, path, mesh, options);
     else if (ext == "obj") write_obj(out, mesh);
     else write_vtk(out, path, mesh);
     out.commit();

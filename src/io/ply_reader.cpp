@@ -1,5 +1,6 @@
 // PLY (.ply): ascii, binary_little_endian, binary_big_endian. Reads vertex x, y, z of any
-// numeric type; other vertex properties and other elements (also list properties) are skipped.
+// numeric type and the vertex properties asked for as attributes; other vertex properties and
+// other elements (also list properties) are skipped.
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -129,29 +130,79 @@ struct BinaryWalker {
     }
 };
 
-std::vector<float> read_binary_vertices(const std::string& path, const std::string& data, const PlyHeader& h,
-                                        std::size_t vi, const int xyz[3]) {
+/// Where each vertex property goes: a position coordinate, an attribute component, or nowhere.
+struct VertexSlot {
+    std::vector<float>* dst = nullptr;  ///< null: skipped
+    std::size_t stride = 0, comp = 0;
+    bool coord = false;
+};
+
+/// The slots of the vertex properties: x, y, z into positions, requested attributes (a scalar
+/// property `name`, or a triplet name_x/name_y/name_z or namex/namey/namez) into `attrs`.
+std::vector<VertexSlot> vertex_slots(const std::string& path, const PlyElement& v, const ReadRequest& r,
+                                     std::vector<float>& positions, std::vector<ParticleAttribute>& attrs) {
+    std::vector<VertexSlot> slots(v.props.size());
+    auto find = [&](const std::string& name) -> int {
+        for (std::size_t k = 0; k < v.props.size(); ++k)
+            if (v.props[k].name == name && !v.props[k].list_count) return static_cast<int>(k);
+        return -1;
+    };
+    for (std::size_t c = 0; c < 3; ++c) {
+        const int k = find(std::string(1, char('x' + c)));
+        if (k < 0) fail(path, "PLY vertex element lacks property x, y or z");
+        slots[k] = {&positions, 3, c, true};
+    }
+    attrs.reserve(r.attributes.size());  // slots point into attrs: no reallocation after this
+    for (const auto& name : r.attributes) {
+        int k[3] = {find(name), -1, -1};
+        int comps = 1;
+        if (k[0] < 0)
+            for (const std::string sep : {"_", ""}) {
+                for (std::size_t c = 0; c < 3; ++c) k[c] = find(name + sep + char('x' + c));
+                if (k[0] >= 0 && k[1] >= 0 && k[2] >= 0) { comps = 3; break; }
+            }
+        if (k[0] < 0 || (comps == 3 && (k[1] < 0 || k[2] < 0))) {
+            std::vector<std::string> names;
+            for (const auto& p : v.props) if (!p.list_count) names.push_back(p.name);
+            missing_attribute(path, name, names);
+        }
+        attrs.push_back({name, comps, {}});
+        for (int c = 0; c < comps; ++c) {
+            if (slots[k[c]].dst)
+                fail(path, "attribute '" + name + "': property '" + v.props[k[c]].name + "' is already read as " +
+                               (slots[k[c]].coord ? "a coordinate" : "another attribute"));
+            slots[k[c]] = {&attrs.back().values, std::size_t(comps), std::size_t(c), false};
+        }
+    }
+    return slots;
+}
+
+/// Reads the vertex element into positions and the attribute values (already sized).
+void read_binary_vertices(const std::string& path, const std::string& data, const PlyHeader& h, std::size_t vi,
+                          std::vector<VertexSlot>& slots, bool keep_invalid) {
     BinaryWalker w{path, data, h.format == PlyHeader::BinaryBE, h.body};
     for (std::size_t e = 0; e < vi; ++e) w.skip(h.elements[e]);
     const PlyElement& v = h.elements[vi];
     std::size_t min_rec = 0;  // the smallest a record can be: bounds the count before allocating
     for (const auto& p : v.props) min_rec += scalar_size(p.list_count ? *p.list_count : p.type);
     if (v.count > (data.size() - w.pos) / min_rec)
-        fail(path, "offset " + std::to_string(w.pos) + ": truncated PLY data: " + std::to_string(v.count) +
-                       " vertices cannot fit in the " + std::to_string(data.size() - w.pos) + " bytes left");
-    std::vector<float> out(3 * v.count);
+        fail(path, "offset " + std::to_string(w.pos) + ": truncated PLY data: " + std::to_string(v.count) + " vertices of at least " +
+                       std::to_string(min_rec) + " bytes cannot fit in the " + byte_size_text(data.size() - w.pos) + " left");
+    for (auto& s : slots) if (s.dst && s.comp == 0) s.dst->resize(s.stride * v.count);
     for (std::uint64_t i = 0; i < v.count; ++i) {
         for (std::size_t k = 0; k < v.props.size(); ++k) {
             const PlyProperty& p = v.props[k];
-            for (int c = 0; c < 3; ++c)
-                if (static_cast<int>(k) == xyz[c]) {
-                    w.need(scalar_size(p.type));
-                    out[3 * i + c] = to_float_checked(path, load_scalar(data.data() + w.pos, p.type, w.big), 3 * i + c);
-                }
+            const VertexSlot& s = slots[k];
+            if (s.dst) {
+                w.need(scalar_size(p.type));
+                const double x = load_scalar(data.data() + w.pos, p.type, w.big);
+                (*s.dst)[s.stride * i + s.comp] =
+                    s.coord && !keep_invalid ? to_float_checked(path, x, 3 * i + s.comp, "offset " + std::to_string(w.pos) + ": ")
+                                             : narrow_to_float(x);
+            }
             w.skip_property(p);
         }
     }
-    return out;
 }
 
 /// ASCII body: tokens, with the line number kept for messages.
@@ -176,51 +227,52 @@ struct AsciiWalker {
     void skip_property(const PlyProperty& p) {
         if (!p.list_count) { token(); return; }
         const double k = number();
-        if (k < 0 || k != std::floor(k)) fail(path, "line " + std::to_string(line) + ": bad list length");
+        // every list entry takes two bytes at least: a longer list cannot be in the file
+        if (k < 0 || k != std::floor(k) || k > double(data.size() - pos) / 2 + 1)
+            fail(path, "line " + std::to_string(line) + ": bad list length");
         for (std::uint64_t j = 0; j < static_cast<std::uint64_t>(k); ++j) token();
     }
 };
 
-std::vector<float> read_ascii_vertices(const std::string& path, const std::string& data, const PlyHeader& h,
-                                       std::size_t vi, const int xyz[3], std::size_t header_lines) {
-    AsciiWalker w{path, data, h.body, header_lines + 1};
+void read_ascii_vertices(const std::string& path, const std::string& data, const PlyHeader& h, std::size_t vi,
+                         std::vector<VertexSlot>& slots, bool keep_invalid) {
+    AsciiWalker w{path, data, h.body, h.header_lines + 1};
     for (std::size_t e = 0; e < vi; ++e)
         for (std::uint64_t i = 0; !h.elements[e].props.empty() && i < h.elements[e].count; ++i)
             for (const auto& p : h.elements[e].props) w.skip_property(p);
     const PlyElement& v = h.elements[vi];
     // each vertex needs at least 2 bytes per property: bound the count before allocating
     if (v.count > (data.size() - w.pos) / (2 * v.props.size()) + 1)
-        fail(path, "line " + std::to_string(w.line) + ": truncated PLY data: " + std::to_string(v.count) + " vertices cannot fit in the rest of the file");
-    std::vector<float> out(3 * v.count);
+        fail(path, "line " + std::to_string(w.line) + ": truncated PLY data: " + std::to_string(v.count) +
+                       " vertices cannot fit in the " + byte_size_text(data.size() - w.pos) + " left");
+    for (auto& s : slots) if (s.dst && s.comp == 0) s.dst->resize(s.stride * v.count);
     for (std::uint64_t i = 0; i < v.count; ++i)
         for (std::size_t k = 0; k < v.props.size(); ++k) {
-            int c = -1;
-            for (int j = 0; j < 3; ++j) if (static_cast<int>(k) == xyz[j]) c = j;
-            if (c < 0) { w.skip_property(v.props[k]); continue; }
+            const VertexSlot& s = slots[k];
+            if (!s.dst) { w.skip_property(v.props[k]); continue; }
             const double x = w.number();
-            if (!std::isfinite(x) || std::fabs(x) > 3.4028234663852886e38)
+            if (s.coord && !keep_invalid && (!std::isfinite(x) || std::fabs(x) > 3.4028234663852886e38))
                 fail(path, "line " + std::to_string(w.line) + ": vertex " + std::to_string(i) + ": non-finite coordinate");
-            out[3 * i + c] = static_cast<float>(x);
+            (*s.dst)[s.stride * i + s.comp] = narrow_to_float(x);
         }
-    return out;
 }
 
 }  // namespace
 
-std::vector<float> read_ply_points(const std::string& path, const std::string& data) {
-    const PlyHeader h = parse_ply_header(path, data);
+ParticleSet read_ply(const ReadRequest& r) {
+    const std::string& path = r.path;
+    const PlyHeader h = parse_ply_header(path, r.data);
     std::size_t vi = h.elements.size();
     for (std::size_t e = 0; e < h.elements.size(); ++e) if (h.elements[e].name == "vertex") { vi = e; break; }
     if (vi == h.elements.size()) fail(path, "PLY header has no 'element vertex'");
-    int xyz[3] = {-1, -1, -1};
-    const auto& props = h.elements[vi].props;
-    for (std::size_t k = 0; k < props.size(); ++k)
-        for (int c = 0; c < 3; ++c)
-            if (props[k].name == std::string(1, char('x' + c)) && !props[k].list_count) xyz[c] = static_cast<int>(k);
-    if (xyz[0] < 0 || xyz[1] < 0 || xyz[2] < 0) fail(path, "PLY vertex element lacks property x, y or z");
-    if (h.format != PlyHeader::Ascii) return read_binary_vertices(path, data, h, vi, xyz);
-    return read_ascii_vertices(path, data, h, vi, xyz, h.header_lines);
+    ParticleSet set;
+    auto slots = vertex_slots(path, h.elements[vi], r, set.positions, set.attributes);
+    if (h.format != PlyHeader::Ascii) read_binary_vertices(path, r.data, h, vi, slots, r.keep_invalid);
+    else read_ascii_vertices(path, r.data, h, vi, slots, r.keep_invalid);
+    return set;
 }
+
+std::vector<float> read_ply_points(const std::string& path, const std::string& data) { return read_ply({path, data, {}, false}).positions; }
 
 PlyValueReader::PlyValueReader(const std::string& path, const std::string& data, const PlyHeader& h)
     : path_(path), data_(data), ascii_(h.format == PlyHeader::Ascii), big_(h.format == PlyHeader::BinaryBE),

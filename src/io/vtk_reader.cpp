@@ -1,5 +1,8 @@
-// Legacy VTK (.vtk): ASCII or BINARY (big-endian), versions 2.0-5.1, any dataset type; only the
-// POINTS section is read. FIELD and METADATA blocks before POINTS are skipped.
+// Legacy VTK (.vtk): ASCII or BINARY (big-endian), versions 2.0-5.1, any dataset type with POINTS.
+// FIELD and METADATA blocks before POINTS are skipped. When attributes are asked for, the sections
+// after POINTS are walked too (cells, POINT_DATA / CELL_DATA arrays) and the named point arrays
+// (SCALARS, VECTORS, NORMALS, FIELD arrays with one tuple per point) are read.
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <optional>
@@ -51,20 +54,31 @@ public:
         }
     }
 
+    /// The cursor state, to look at a line and go back (an optional LOOKUP_TABLE line).
+    struct Mark { std::size_t pos, line, err_line; };
+    Mark mark() const { return {pos_, line_, err_line_}; }
+    void reset(const Mark& m) { pos_ = m.pos; line_ = m.line; err_line_ = m.err_line; }
+
     /// Error at the line of the last line or token read.
     [[noreturn]] void error(const std::string& what) const { fail(path_, "line " + std::to_string(err_line_) + ": " + what); }
     [[noreturn]] void error_at(const std::string& what) const { fail(path_, "offset " + std::to_string(pos_) + ": " + what); }
 
-    /// Reads `count` values of type t (binary big-endian or ASCII) as floats.
-    std::vector<float> read_array(std::uint64_t count, Scalar t, bool binary) {
-        return binary ? read_binary(count, t) : read_ascii(count);
+    /// Reads `count` coordinates of type t (binary big-endian or ASCII) as floats; NaN/Inf are an
+    /// Error unless keep_invalid.
+    std::vector<float> read_coords(std::uint64_t count, Scalar t, bool binary, bool keep_invalid) {
+        return binary ? read_binary(count, t, !keep_invalid) : read_ascii(count, !keep_invalid);
+    }
+
+    /// Reads `count` values of type t as floats, whatever they hold (attribute arrays).
+    std::vector<float> read_values(std::uint64_t count, Scalar t, bool binary) {
+        return binary ? read_binary(count, t, false) : read_ascii(count, false);
     }
 
     /// Skips `count` values (binary or ASCII) without converting them.
     void skip_array(std::uint64_t count, Scalar t, bool binary) {
         if (binary) {
             check_binary_size(count, t);
-            pos_ += count * scalar_size(t);
+            advance(count * scalar_size(t));
             return;
         }
         for (std::uint64_t i = 0; i < count; ++i)
@@ -78,41 +92,54 @@ public:
             std::vector<std::int64_t> out(count);
             for (std::uint64_t i = 0; i < count; ++i) {
                 const double v = load_scalar(data_.data() + pos_ + i * scalar_size(t), t, true);
-                if (!is_int64(v)) error_at("integer value is not whole or out of range");
+                if (!(v == std::floor(v) && std::fabs(v) <= 9.2e18))  // before the cast, which would overflow
+                    error_at("integer value is not whole or out of range");
                 out[i] = static_cast<std::int64_t>(v);
             }
-            pos_ += count * scalar_size(t);
+            advance(count * scalar_size(t));
             return out;
         }
-        const std::uint64_t left = data_.size() - std::min<std::size_t>(pos_, data_.size());
-        if (count > left / 2 + 1) error("truncated ASCII data: " + std::to_string(count) + " values cannot fit");
+        check_ascii_size(count);
         std::vector<std::int64_t> out(count);
         for (std::uint64_t i = 0; i < count; ++i) {
             const std::string_view tok = next_token();
             double v;
             if (tok.empty()) error("truncated ASCII data: found " + std::to_string(i) + " of " + std::to_string(count) + " values");
-            if (!parse_double(tok, v)) error("malformed integer '" + std::string(tok.substr(0, 40)) + "'");
-            if (!is_int64(v)) error("integer '" + std::string(tok.substr(0, 40)) + "' is not whole or out of range");
+            if (!parse_double(tok, v) || v != std::floor(v) || std::fabs(v) > 9.2e18)
+                error("malformed integer '" + std::string(tok.substr(0, 40)) + "'");
             out[i] = static_cast<std::int64_t>(v);
         }
         return out;
     }
 
 private:
-    /// A whole number that an int64 holds (checked before the cast, which would overflow).
-    static bool is_int64(double v) { return v == std::floor(v) && v >= -0x1p63 && v < 0x1p63; }
+    std::uint64_t left() const { return data_.size() - std::min<std::size_t>(pos_, data_.size()); }
 
-    void check_binary_size(std::uint64_t count, Scalar t) const {
-        const std::uint64_t left = data_.size() - std::min<std::size_t>(pos_, data_.size());
-        if (count > left / scalar_size(t))
-            error_at("truncated binary data: expected " + std::to_string(count) + " values of " +
-                     std::to_string(scalar_size(t)) + " bytes, only " + std::to_string(left) + " bytes left");
+    /// Moves past `bytes` of binary data, counting the newline bytes in it so that line numbers
+    /// in later messages stay those a text editor shows.
+    void advance(std::uint64_t bytes) {
+        line_ += static_cast<std::size_t>(std::count(data_.data() + pos_, data_.data() + pos_ + bytes, '\n'));
+        pos_ += bytes;
     }
 
-    std::vector<float> read_binary(std::uint64_t count, Scalar t) {
+    void check_binary_size(std::uint64_t count, Scalar t) const {
+        if (count > left() / scalar_size(t))
+            error_at("truncated binary data: " + std::to_string(count) + " values of " + std::to_string(scalar_size(t)) +
+                     " bytes need " + byte_size_text(count > UINT64_MAX / scalar_size(t) ? UINT64_MAX : count * scalar_size(t)) +
+                     ", only " + byte_size_text(left()) + " left in the file");
+    }
+
+    /// Every ASCII value takes at least two bytes (a digit and a separator): bound before allocating.
+    void check_ascii_size(std::uint64_t count) const {
+        if (count > left() / 2 + 1)
+            error("truncated ASCII data: " + std::to_string(count) + " values cannot fit in the " +
+                  byte_size_text(left()) + " left in the file");
+    }
+
+    std::vector<float> read_binary(std::uint64_t count, Scalar t, bool finite_only) {
         check_binary_size(count, t);
-        auto out = convert_coords(path_, data_.data() + pos_, count, t, true);
-        pos_ += count * scalar_size(t);
+        auto out = convert_coords(path_, data_.data() + pos_, count, t, true, finite_only, {pos_, {}});
+        advance(count * scalar_size(t));
         return out;
     }
 
@@ -127,21 +154,17 @@ private:
         return std::string_view(data_.data() + start, pos_ - start);
     }
 
-    std::vector<float> read_ascii(std::uint64_t count) {
-        // every value takes at least two bytes (a digit and a separator): bound before allocating
-        const std::uint64_t left = data_.size() - std::min<std::size_t>(pos_, data_.size());
-        if (count > left / 2 + 1)
-            error("truncated ASCII data: " + std::to_string(count) + " values cannot fit in the " +
-                  std::to_string(left) + " bytes left");
+    std::vector<float> read_ascii(std::uint64_t count, bool finite_only) {
+        check_ascii_size(count);
         std::vector<float> out(count);
         for (std::uint64_t i = 0; i < count; ++i) {
             const std::string_view tok = next_token();
             if (tok.empty()) error("truncated ASCII data: found " + std::to_string(i) + " of " + std::to_string(count) + " values");
             double v;
             if (!parse_double(tok, v)) error("malformed number '" + std::string(tok.substr(0, 40)) + "'");
-            if (!std::isfinite(v) || std::fabs(v) > 3.4028234663852886e38)
+            if (finite_only && (!std::isfinite(v) || std::fabs(v) > 3.4028234663852886e38))
                 error("particle " + std::to_string(i / 3) + ": non-finite coordinate '" + std::string(tok.substr(0, 40)) + "'");
-            out[i] = static_cast<float>(v);
+            out[i] = narrow_to_float(v);
         }
         return out;
     }
@@ -193,7 +216,7 @@ void skip_field(VtkCursor& cur, const std::vector<std::string_view>& head, bool 
 }
 
 /// Reads up to and including the POINTS section.
-std::vector<float> read_points_section(VtkCursor& cur, bool binary) {
+std::vector<float> read_points_section(VtkCursor& cur, bool binary, bool keep_invalid) {
     for (;;) {
         auto l = cur.line();
         if (!l) cur.error("end of file before POINTS: expected POINTS <n> <type>");
@@ -207,9 +230,140 @@ std::vector<float> read_points_section(VtkCursor& cur, bool binary) {
         const auto type = vtk_type(t[2]);
         if (!type) cur.error("unsupported POINTS type '" + std::string(t[2]) + "', expected float or double");
         if (n > UINT64_MAX / 3) cur.error("POINTS count " + std::to_string(n) + " is impossible");
-        return cur.read_array(3 * n, *type, binary);
+        return cur.read_coords(3 * n, *type, binary, keep_invalid);
     }
 }
+
+/// The sections after POINTS: cells are skipped, POINT_DATA / CELL_DATA arrays are read when
+/// asked for (point arrays only) and skipped otherwise.
+class VtkDataWalker {
+public:
+    VtkDataWalker(VtkCursor& cur, bool binary, std::uint64_t points, AttributeSink& sink)
+        : cur_(cur), binary_(binary), points_(points), sink_(sink) {}
+
+    void run() {
+        for (auto l = cur_.line(); l; l = cur_.line()) {
+            const auto t = split_ws(*l);
+            const std::string kw = upper(t[0]);
+            if (kw == "CELLS" || kw == "VERTICES" || kw == "LINES" || kw == "POLYGONS" || kw == "TRIANGLE_STRIPS") cells(t, kw);
+            else if (kw == "OFFSETS") cur_.skip_array(offsets_, type_of(t, 1, "OFFSETS <type>"), binary_);
+            else if (kw == "CONNECTIVITY") cur_.skip_array(connectivity_, type_of(t, 1, "CONNECTIVITY <type>"), binary_);
+            else if (kw == "CELL_TYPES") cur_.skip_array(count(t, 1, "CELL_TYPES <n>"), Scalar::I32, binary_);
+            else if (kw == "POINT_DATA") point_data(t);
+            else if (kw == "CELL_DATA") { tuples_ = count(t, 1, "CELL_DATA <n>"); point_mode_ = false; }
+            else if (kw == "SCALARS") scalars(t);
+            else if (kw == "VECTORS" || kw == "NORMALS") array(t, 2, 3, "<name> <type>");
+            else if (kw == "TENSORS") array(t, 2, 9, "<name> <type>");
+            else if (kw == "TEXTURE_COORDINATES") array(t, 3, count(t, 2, "TEXTURE_COORDINATES <name> <dim> <type>"), "<name> <dim> <type>");
+            else if (kw == "COLOR_SCALARS") skip_bytes_or_floats(mul(tuples_, count(t, 2, "COLOR_SCALARS <name> <n>")));
+            else if (kw == "LOOKUP_TABLE") skip_bytes_or_floats(mul(4, count(t, 2, "LOOKUP_TABLE <name> <size>")));
+            else if (kw == "FIELD") field(t);
+            else if (kw == "METADATA") skip_metadata(cur_);
+            else cur_.error("unexpected '" + std::string(t[0].substr(0, 40)) + "' after POINTS: expected a cell section, POINT_DATA or CELL_DATA");
+        }
+    }
+
+private:
+    std::uint64_t count(const std::vector<std::string_view>& t, std::size_t i, const char* form) {
+        if (t.size() <= i) cur_.error(std::string("expected ") + form);
+        return parse_count(cur_, t[i], form);
+    }
+    Scalar type_of(const std::vector<std::string_view>& t, std::size_t i, const char* form) {
+        if (t.size() <= i) cur_.error(std::string("expected ") + form);
+        const auto type = vtk_type(t[i]);
+        if (!type) cur_.error("unsupported data type '" + std::string(t[i].substr(0, 40)) + "'");
+        return *type;
+    }
+    std::uint64_t mul(std::uint64_t a, std::uint64_t b) {
+        if (a != 0 && b > UINT64_MAX / a) cur_.error("array size " + std::to_string(a) + " x " + std::to_string(b) + " overflows");
+        return a * b;
+    }
+
+    /// 4.x: <kw> <n> <size> and `size` ints; 5.x: <kw> <offsets> <connectivity>, then OFFSETS and
+    /// CONNECTIVITY arrays of their own types (told apart by the line that follows).
+    void cells(const std::vector<std::string_view>& t, const std::string& kw) {
+        const std::string form = kw + " <n> <size>";
+        const std::uint64_t a = count(t, 1, form.c_str()), b = count(t, 2, form.c_str());
+        const auto m = cur_.mark();
+        const auto next = cur_.line();
+        const bool v5 = next && upper(next->substr(0, 7)) == "OFFSETS";
+        cur_.reset(m);
+        if (v5) {
+            offsets_ = a;
+            connectivity_ = b;
+        } else {
+            cur_.skip_array(b, Scalar::I32, binary_);
+        }
+    }
+
+    void point_data(const std::vector<std::string_view>& t) {
+        const std::uint64_t n = count(t, 1, "POINT_DATA <n>");
+        if (n != points_) cur_.error("POINT_DATA " + std::to_string(n) + " does not match POINTS " + std::to_string(points_));
+        tuples_ = n;
+        point_mode_ = true;
+    }
+
+    /// SCALARS <name> <type> [<components>], an optional LOOKUP_TABLE line, the values.
+    void scalars(const std::vector<std::string_view>& t) {
+        const Scalar type = type_of(t, 2, "SCALARS <name> <type> [<components>]");
+        const std::uint64_t comps = t.size() > 3 ? count(t, 3, "SCALARS <name> <type> <components>") : 1;
+        const auto m = cur_.mark();
+        const auto lut = cur_.line();
+        if (!lut || upper(lut->substr(0, 12)) != "LOOKUP_TABLE") cur_.reset(m);
+        values(t[1], comps, type);
+    }
+
+    /// <KW> <name> <type> (or <name> <dim> <type>) with `comps` values per tuple.
+    void array(const std::vector<std::string_view>& t, std::size_t type_at, std::uint64_t comps, const char* form) {
+        if (t.size() <= type_at) cur_.error(std::string("expected ") + std::string(t[0]) + " " + form);
+        values(t[1], comps, type_of(t, type_at, form));
+    }
+
+    /// FIELD <name> <n>, then per array <name> <components> <tuples> <type> and the values; an
+    /// array of POINT_DATA with one tuple per point is a point attribute.
+    void field(const std::vector<std::string_view>& head) {
+        const std::uint64_t arrays = count(head, 2, "FIELD <name> <number of arrays>");
+        for (std::uint64_t a = 0; a < arrays; ++a) {
+            const auto l = cur_.line();
+            const auto t = l ? split_ws(*l) : std::vector<std::string_view>{};
+            if (t.size() < 4) cur_.error("expected <array name> <components> <tuples> <type> in FIELD");
+            const std::uint64_t comps = count(t, 1, "a component count"), tuples = count(t, 2, "a tuple count");
+            const Scalar type = type_of(t, 3, "<array name> <components> <tuples> <type>");
+            if (point_mode_ && tuples == points_) {
+                values(t[0], comps, type);
+                continue;
+            }
+            if (point_mode_ && sink_.requested(t[0]))
+                cur_.error("FIELD array '" + std::string(t[0]) + "' has " + std::to_string(tuples) + " tuples, expected one per point (" +
+                           std::to_string(points_) + ")");
+            cur_.skip_array(mul(comps, tuples), type, binary_);
+        }
+    }
+
+    /// One array of `tuples_` x comps values: read when it is a requested point attribute.
+    void values(std::string_view name, std::uint64_t comps, Scalar type) {
+        const std::uint64_t n = mul(tuples_, comps);
+        const int index = point_mode_ ? sink_.wanted(name) : -1;
+        if (index < 0) {
+            cur_.skip_array(n, type, binary_);
+            return;
+        }
+        const std::string where = "attribute '" + std::string(name) + "'";
+        if (comps != 1 && comps != 3) cur_.error(where + " has " + std::to_string(comps) + " components, expected 1 or 3");
+        sink_.append(index, static_cast<int>(comps), cur_.read_values(n, type, binary_), "");
+    }
+
+    /// COLOR_SCALARS and LOOKUP_TABLE values: unsigned char when binary, float when ASCII.
+    void skip_bytes_or_floats(std::uint64_t n) { cur_.skip_array(n, binary_ ? Scalar::U8 : Scalar::F32, binary_); }
+
+    VtkCursor& cur_;
+    bool binary_;
+    std::uint64_t points_;
+    AttributeSink& sink_;
+    std::uint64_t tuples_ = 0;  ///< tuples per array in the current POINT_DATA / CELL_DATA
+    bool point_mode_ = false;
+    std::uint64_t offsets_ = 0, connectivity_ = 0;  ///< 5.x sizes of the next OFFSETS / CONNECTIVITY
+};
 
 /// POLYGONS <n> <size>: n polygons as <k> i0 .. ik-1, fan-triangulated.
 void read_polygons(VtkCursor& cur, const std::vector<std::string_view>& t, bool binary, Mesh& mesh) {
@@ -233,38 +387,69 @@ void read_polygons(VtkCursor& cur, const std::vector<std::string_view>& t, bool 
     }
 }
 
-/// POINT_DATA <n>, then SCALARS level <type> 1, LOOKUP_TABLE default, values.
-void read_point_levels(VtkCursor& cur, bool binary, Mesh& mesh) {
-    auto l = cur.line();
-    const auto t = l ? split_ws(*l) : std::vector<std::string_view>{};
-    if (t.size() < 3 || upper(t[0]) != "SCALARS" || t[1] != "level") return;  // other point data: ignored
+/// One POINT_DATA array of a mesh: SCALARS level (the vertex level), NORMALS, other SCALARS
+/// (1 or 3 components) and VECTORS as vertex attributes.
+void read_point_array(VtkCursor& cur, const std::vector<std::string_view>& t, bool binary, Mesh& mesh) {
+    const std::string kw = upper(t[0]);
+    const bool scalars = kw == "SCALARS";
+    if (t.size() < 3) cur.error("expected " + kw + " <name> <type>");
     const auto type = vtk_type(t[2]);
-    if (!type) cur.error("unsupported SCALARS type '" + std::string(t[2]) + "'");
-    auto lut = cur.line();
-    if (!lut || upper(lut->substr(0, 12)) != "LOOKUP_TABLE") cur.error("expected LOOKUP_TABLE default");
-    const auto v = cur.read_ints(mesh.vertex_count(), *type, binary);
-    mesh.vertex_level.assign(v.begin(), v.end());
+    if (!type) cur.error("unsupported " + kw + " type '" + std::string(t[2]) + "'");
+    std::uint64_t comps = scalars ? 1 : 3;
+    if (scalars && t.size() > 3) comps = parse_count(cur, t[3], "a component count");
+    if (comps != 1 && comps != 3) cur.error(kw + " " + std::string(t[1]) + ": " + std::to_string(comps) + " components, expected 1 or 3");
+    if (scalars) {
+        auto lut = cur.line();
+        if (!lut || upper(lut->substr(0, 12)) != "LOOKUP_TABLE") cur.error("expected LOOKUP_TABLE default");
+    }
+    const std::uint64_t n = comps * mesh.vertex_count();
+    if (scalars && t[1] == "level" && comps == 1) {
+        const auto v = cur.read_ints(n, *type, binary);
+        mesh.vertex_level.assign(v.begin(), v.end());
+    } else if (kw == "NORMALS") {
+        mesh.normals = cur.read_values(n, *type, binary);
+    } else {
+        mesh.attributes.push_back({std::string(t[1]), int(comps), cur.read_values(n, *type, binary)});
+    }
 }
 
 }  // namespace
 
-std::vector<float> read_vtk_points(const std::string& path, const std::string& data) {
-    VtkCursor cur(path, data);
+ParticleSet read_vtk(const ReadRequest& r) {
+    VtkCursor cur(r.path, r.data);
     const bool binary = read_header(cur);
-    return read_points_section(cur, binary);
+    ParticleSet set;
+    set.positions = read_points_section(cur, binary, r.keep_invalid);
+    AttributeSink sink(r);
+    if (!r.attributes.empty()) VtkDataWalker(cur, binary, set.size(), sink).run();  // positions only: stop at POINTS
+    set.attributes = sink.finish(set.size());
+    return set;
 }
+
+std::vector<float> read_vtk_points(const std::string& path, const std::string& data) { return read_vtk({path, data, {}, false}).positions; }
 
 Mesh read_vtk_mesh(const std::string& path, const std::string& data) {
     VtkCursor cur(path, data);
     const bool binary = read_header(cur);
     Mesh mesh;
-    mesh.positions = read_points_section(cur, binary);
+    mesh.positions = read_points_section(cur, binary, false);
+    bool point_data = false;
     for (auto l = cur.line(); l; l = cur.line()) {
         const auto t = split_ws(*l);
         const std::string kw = upper(t[0]);
-        if (kw == "POLYGONS") read_polygons(cur, t, binary, mesh);
-        else if (kw == "POINT_DATA") read_point_levels(cur, binary, mesh);
-        else cur.error("unexpected '" + std::string(t[0]) + "' in a mesh file (expected POLYGONS or POINT_DATA)");
+        if (kw == "POLYGONS") {
+            read_polygons(cur, t, binary, mesh);
+        } else if (kw == "POINT_DATA") {
+            if (t.size() < 2 || parse_count(cur, t[1], "POINT_DATA <n>") != mesh.vertex_count())
+                cur.error("POINT_DATA count does not match the " + std::to_string(mesh.vertex_count()) + " points");
+            point_data = true;
+        } else if (point_data && (kw == "SCALARS" || kw == "NORMALS" || kw == "VECTORS")) {
+            read_point_array(cur, t, binary, mesh);
+        } else if (kw == "FIELD") {
+            skip_field(cur, t, binary);
+        } else {
+            cur.error("unexpected '" + std::string(t[0]) + "' in a mesh file (expected POLYGONS or POINT_DATA arrays)");
+        }
     }
     return mesh;
 }

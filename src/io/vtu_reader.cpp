@@ -1,6 +1,9 @@
-// VTK XML unstructured grid (.vtu): Points of every Piece, stored ascii, inline base64
-// (format="binary"), or appended (raw or base64), optionally zlib-compressed in blocks.
+// VTK XML unstructured grid (.vtu): Points of every Piece, and the PointData arrays asked for,
+// stored ascii, inline base64 (format="binary"), or appended (raw or base64), optionally
+// zlib-compressed in blocks. Every size a header claims is checked against the bytes present
+// (or, compressed, against deflate's best ratio) before anything is allocated or inflated.
 // A small tag scanner stands in for an XML parser: only the tags we need are looked at.
+#include <climits>
 #include <map>
 #include <optional>
 
@@ -108,7 +111,10 @@ std::optional<Scalar> vtu_type(const std::string& t) {
 class VtuDecoder {
 public:
     VtuDecoder(const std::string& path, const Tag& root) : path_(path) {
-        big_ = root.get("byte_order", "LittleEndian") == "BigEndian";
+        const std::string order = root.get("byte_order", "LittleEndian");
+        if (order != "LittleEndian" && order != "BigEndian")
+            fail(path, "offset " + std::to_string(root.begin) + ": unknown byte_order '" + order + "', expected LittleEndian or BigEndian");
+        big_ = order == "BigEndian";
         const std::string ht = root.get("header_type", "UInt32");
         if (ht != "UInt32" && ht != "UInt64") fail(path, "unsupported header_type '" + ht + "', expected UInt32 or UInt64");
         hs_ = ht == "UInt32" ? 4 : 8;
@@ -120,23 +126,26 @@ public:
 
     bool big_endian() const { return big_; }
 
-    /// Raw (not base64) header + payload at buf; `at` is the file offset for messages.
-    std::string raw(std::string_view buf, std::size_t at, std::uint64_t expected) const {
+    /// Raw (not base64) header + payload at buf, `expected` bytes of array `what`; `at` is the
+    /// file offset for messages.
+    std::string raw(std::string_view buf, std::size_t at, std::uint64_t expected, const std::string& what) const {
         if (!zlib_) {
             const std::uint64_t n = header_word(buf, 0, at);
-            check_plain_size(n, expected, at);
-            if (buf.size() - hs_ < n) fail(path_, "offset " + std::to_string(at) + ": truncated appended data");
+            check_plain_size(n, expected, at, what);
+            if (buf.size() - hs_ < n)
+                fail(path_, "offset " + std::to_string(at) + ": truncated appended data: " + what + " needs " +
+                                byte_size_text(n) + ", " + byte_size_text(buf.size() - hs_) + " left");
             return std::string(buf.substr(hs_, n));
         }
         const std::uint64_t nb = header_word(buf, 0, at);
         check_block_count(nb, buf.size(), at);
         const std::size_t hbytes = (3 + nb) * hs_;
         if (buf.size() < hbytes) fail(path_, "offset " + std::to_string(at) + ": truncated compression header");
-        return inflate_blocks(buf.substr(0, hbytes), buf.substr(hbytes), at, expected);
+        return inflate_blocks(buf.substr(0, hbytes), buf.substr(hbytes), at, expected, what);
     }
 
     /// Base64 text holding header + payload, encoded jointly or separately (VTK does both).
-    std::string base64(std::string_view text, std::size_t at, std::uint64_t expected) const {
+    std::string base64(std::string_view text, std::size_t at, std::uint64_t expected, const std::string& what) const {
         const std::size_t first = b64_chars(zlib_ ? 3 * hs_ : hs_);
         if (text.size() < first) fail(path_, "offset " + std::to_string(at) + ": truncated base64 data");
         const std::string head = b64_decode(path_, text.substr(0, first), at);
@@ -148,10 +157,11 @@ public:
         const bool separate = hbytes % 3 == 0 || text[hc - 1] == '=';
         const std::string header = b64_decode(path_, text.substr(0, hc), at).substr(0, hbytes);
         std::uint64_t payload = zlib_ ? 0 : header_word(header, 0, at);
-        if (!zlib_) check_plain_size(payload, expected, at);
+        if (!zlib_) check_plain_size(payload, expected, at, what);
         for (std::uint64_t b = 0; zlib_ && b < nb; ++b) {
             const std::uint64_t c = header_word(header, 3 + b, at);
-            if (c > text.size()) fail(path_, "offset " + std::to_string(at) + ": compressed block larger than the data");
+            if (c > text.size() - payload)  // the base64 text holds fewer bytes than its characters
+                fail(path_, "offset " + std::to_string(at) + ": compressed blocks claim more bytes than the data holds");
             payload += c;
         }
         const std::size_t start = separate ? hc : 0;
@@ -160,7 +170,7 @@ public:
         std::string body = b64_decode(path_, text.substr(start, chars), at + start);
         body = separate ? body.substr(0, payload) : body.substr(hbytes, payload);
         if (body.size() != payload) fail(path_, "offset " + std::to_string(at) + ": truncated base64 data");
-        return zlib_ ? inflate_blocks(header, body, at, expected) : body;
+        return zlib_ ? inflate_blocks(header, body, at, expected, what) : body;
     }
 
 private:
@@ -169,10 +179,10 @@ private:
         return hs_ == 4 ? load<std::uint32_t>(buf.data() + index * 4, big_) : load<std::uint64_t>(buf.data() + index * 8, big_);
     }
 
-    void check_plain_size(std::uint64_t n, std::uint64_t expected, std::size_t at) const {
+    void check_plain_size(std::uint64_t n, std::uint64_t expected, std::size_t at, const std::string& what) const {
         if (n != expected)
             fail(path_, "offset " + std::to_string(at) + ": data array holds " + std::to_string(n) + " bytes, expected " +
-                            std::to_string(expected) + " for the Points");
+                            std::to_string(expected) + " for " + what);
     }
 
     void check_block_count(std::uint64_t nb, std::size_t available, std::size_t at) const {
@@ -180,26 +190,42 @@ private:
     }
 
     /// header: nblocks, block size, last block size, compressed sizes; payload: the blocks.
+    /// Every block's claimed size is checked (present, and within deflate's 1032:1 ratio of its
+    /// compressed size) before the output is allocated and anything is inflated.
     std::string inflate_blocks(std::string_view header, std::string_view payload, std::size_t at,
-                               std::uint64_t expected) const {
+                               std::uint64_t expected, const std::string& what) const {
         const std::uint64_t nb = header_word(header, 0, at), bs = header_word(header, 1, at);
         std::uint64_t last = header_word(header, 2, at);
         if (nb > 0 && last == 0) last = bs;
         const std::uint64_t total = nb == 0 ? 0 : (nb - 1) * bs + last;
         if (nb > 0 && ((bs == 0) || (nb - 1) > expected / bs || total != expected || last > bs))
-            fail(path_, "offset " + std::to_string(at) + ": compressed data array holds a wrong size, expected " + std::to_string(expected) + " bytes for the Points");
+            fail(path_, "offset " + std::to_string(at) + ": compressed data array holds a wrong size, expected " +
+                            std::to_string(expected) + " bytes for " + what);
         if (nb == 0 && expected != 0) fail(path_, "offset " + std::to_string(at) + ": compressed data array is empty");
-        std::string out(expected, '\0');
-        std::size_t in = 0, done = 0;
+        std::uint64_t in = 0;
         for (std::uint64_t b = 0; b < nb; ++b) {
             const std::uint64_t csize = header_word(header, 3 + b, at);
             const std::uint64_t usize = b + 1 == nb ? last : bs;
-            if (csize > payload.size() - in) fail(path_, "offset " + std::to_string(at) + ": truncated compressed block " + std::to_string(b));
+            if (csize > payload.size() - in)
+                fail(path_, "offset " + std::to_string(at) + ": truncated compressed block " + std::to_string(b) + " of " + what);
+            if (usize > max_inflated_size(csize))
+                fail(path_, "offset " + std::to_string(at) + ": zlib block " + std::to_string(b) + " of " + what + " claims " +
+                                byte_size_text(usize) + " from " + byte_size_text(csize) + ", beyond zlib's 1032:1 ratio");
+            if (usize > ULONG_MAX) fail(path_, "offset " + std::to_string(at) + ": zlib block too large for this zlib");
+            in += csize;
+        }
+        std::string out(expected, '\0');
+        std::size_t done = 0;
+        in = 0;
+        for (std::uint64_t b = 0; b < nb; ++b) {
+            const std::uint64_t csize = header_word(header, 3 + b, at);
+            const std::uint64_t usize = b + 1 == nb ? last : bs;
             uLongf len = static_cast<uLongf>(usize);
             const int rc = uncompress(reinterpret_cast<Bytef*>(out.data() + done), &len,
                                       reinterpret_cast<const Bytef*>(payload.data() + in), static_cast<uLong>(csize));
             if (rc != Z_OK || len != usize)
-                fail(path_, "offset " + std::to_string(at) + ": bad zlib block " + std::to_string(b) + " (" + (rc == Z_OK ? "wrong size" : zError(rc)) + ")");
+                fail(path_, "offset " + std::to_string(at) + ": bad zlib block " + std::to_string(b) + " of " + what + " (" +
+                                (rc == Z_OK ? "wrong size" : zError(rc)) + ")");
             in += csize;
             done += usize;
         }
@@ -241,63 +267,126 @@ std::string strip_ws(std::string_view s) {
     return out;
 }
 
-std::vector<float> ascii_array(const std::string& path, std::string_view text, std::size_t at, std::uint64_t count) {
+/// The text content of a DataArray: up to </DataArray>, without nested elements such as the
+/// <InformationKey> blocks ParaView writes (whose <Value>s are not array data).
+std::string inline_text(std::string_view xml, const Tag& array) {
+    if (array.self_closing) return {};
+    std::string out;
+    std::size_t i = array.end;
+    for (;;) {
+        const std::size_t lt = xml.find('<', i);
+        out.append(xml.substr(i, (lt == std::string_view::npos ? xml.size() : lt) - i));
+        if (lt == std::string_view::npos || xml.compare(lt, 12, "</DataArray>") == 0) return out;
+        std::size_t name_end = lt + 1;
+        while (name_end < xml.size() && !std::isspace(static_cast<unsigned char>(xml[name_end])) && xml[name_end] != '>' &&
+               xml[name_end] != '/')
+            ++name_end;
+        const std::string name(xml.substr(lt + 1, name_end - lt - 1));
+        const std::size_t gt = xml.find('>', lt);
+        if (gt == std::string_view::npos) return out;
+        if (name.empty() || name[0] == '/' || xml[gt - 1] == '/') { i = gt + 1; continue; }  // a stray or empty element
+        const std::size_t close = xml.find("</" + name + ">", gt);
+        i = close == std::string_view::npos ? gt + 1 : close + name.size() + 3;
+    }
+}
+
+/// Where a reader finds the arrays of one file.
+struct VtuContext {
+    const std::string& path;
+    const std::string& file;
+    const VtuDecoder& dec;
+    const std::optional<Appended>& app;
+};
+
+/// The ascii values of an array: exactly `count` numbers; non-finite ones are an Error when
+/// `coords` and finite_only (positions), kept as they are otherwise.
+std::vector<float> ascii_array(const std::string& path, std::string_view text, std::size_t at, std::uint64_t count,
+                               const std::string& what, bool coords, bool finite_only) {
     const auto tokens = split_ws(text);
     if (tokens.size() != count)
-        fail(path, "offset " + std::to_string(at) + ": ascii Points hold " + std::to_string(tokens.size()) +
-                       " values, expected " + std::to_string(count));
+        fail(path, "offset " + std::to_string(at) + ": " + what + " holds " + std::to_string(tokens.size()) +
+                       " ascii values, expected " + std::to_string(count));
     std::vector<float> out(count);
     for (std::size_t i = 0; i < count; ++i) {
         double v;
         if (!parse_double(tokens[i], v))
-            fail(path, "offset " + std::to_string(tokens[i].data() - text.data() + at) + ": malformed number '" + std::string(tokens[i].substr(0, 40)) + "'");
-        out[i] = to_float_checked(path, v, i);
+            fail(path, "offset " + std::to_string(at) + ": " + what + ": malformed number '" + std::string(tokens[i].substr(0, 40)) + "'");
+        out[i] = coords && finite_only ? to_float_checked(path, v, i, "offset " + std::to_string(tokens[i].data() - text.data() + at) + ": ")
+                                       : narrow_to_float(v);
     }
     return out;
 }
 
-/// The Points DataArray of one piece holding n points.
-std::vector<float> read_piece_points(const std::string& path, const std::string& file, const Tag& array,
-                                     std::uint64_t n, const VtuDecoder& dec, const std::optional<Appended>& app) {
+/// One DataArray of `tuples` x `comps` values as floats, whatever its format and encoding.
+/// `what` names it in messages; coordinates (coords) reject NaN/Inf unless keep_invalid.
+std::vector<float> read_data_array(const VtuContext& c, const Tag& array, std::uint64_t tuples, std::uint64_t comps,
+                                   const std::string& what, bool coords, bool keep_invalid) {
     const std::string at = "offset " + std::to_string(array.begin) + ": ";
     const auto type = vtu_type(array.get("type"));
-    if (!type) fail(path, at + "unsupported Points type '" + array.get("type") + "', expected Float32 or Float64");
-    if (array.get("NumberOfComponents", "3") != "3") fail(path, at + "Points must have NumberOfComponents=\"3\"");
+    if (!type) fail(c.path, at + "unsupported type '" + array.get("type") + "' for " + what + ", expected Int8..UInt64, Float32 or Float64");
+    const std::uint64_t count = mul_checked(c.path, at + what, tuples, comps, "size");
     const std::size_t ts = scalar_size(*type);
-    // the largest array a file of this size could hold even at zlib's best ratio (about 1032:1)
-    if (n > (std::uint64_t(file.size()) * 1040 + 1024) / (3 * ts))
-        fail(path, at + "NumberOfPoints=" + std::to_string(n) + " cannot fit in a file of " + std::to_string(file.size()) + " bytes");
-    const std::uint64_t bytes = n * 3 * ts;
+    // the largest array a file of this size could hold even at zlib's best ratio (1032:1)
+    if (count > (max_inflated_size(c.file.size()) + 1024) / ts)
+        fail(c.path, at + what + ": NumberOfPoints=" + std::to_string(tuples) + " x " + std::to_string(comps) + " x " +
+                         std::to_string(ts) + " bytes need " + byte_size_text(count > UINT64_MAX / ts ? UINT64_MAX : count * ts) +
+                         ", more than a file of " + byte_size_text(c.file.size()) + " can hold even compressed");
+    const std::uint64_t bytes = count * ts;
     const std::string format = array.get("format", "ascii");
-    const std::size_t text_end = array.self_closing ? array.end : file.find('<', array.end);
-    const std::string_view inline_text = std::string_view(file).substr(array.end, (text_end == std::string::npos ? file.size() : text_end) - array.end);
     std::string raw;
-    if (format == "ascii") return ascii_array(path, inline_text, array.end, 3 * n);
+    if (format == "ascii") return ascii_array(c.path, inline_text(c.file, array), array.end, count, what, coords, !keep_invalid);
     if (format == "binary") {
-        raw = dec.base64(strip_ws(inline_text), array.end, bytes);
+        raw = c.dec.base64(strip_ws(inline_text(c.file, array)), array.end, bytes, what);
     } else if (format == "appended") {
-        if (!app) fail(path, at + "appended DataArray but no AppendedData section");
+        if (!c.app) fail(c.path, at + "appended DataArray but no AppendedData section");
         std::uint64_t off;
-        if (!parse_u64(array.get("offset", "0"), off)) fail(path, at + "bad DataArray offset '" + array.get("offset") + "'");
-        if (off >= app->data.size()) fail(path, at + "DataArray offset " + std::to_string(off) + " lies beyond the appended data");
-        raw = app->base64 ? dec.base64(app->data.substr(off), app->offset + off, bytes)
-                          : dec.raw(app->data.substr(off), app->offset + off, bytes);
+        if (!parse_u64(array.get("offset", "0"), off)) fail(c.path, at + "bad DataArray offset '" + array.get("offset") + "'");
+        if (off >= c.app->data.size())
+            fail(c.path, at + "DataArray offset " + std::to_string(off) + " lies beyond the appended data (" +
+                             std::to_string(c.app->data.size()) + " bytes)");
+        raw = c.app->base64 ? c.dec.base64(c.app->data.substr(off), c.app->offset + off, bytes, what)
+                            : c.dec.raw(c.app->data.substr(off), c.app->offset + off, bytes, what);
     } else {
-        fail(path, at + "unknown DataArray format '" + format + "', expected ascii, binary or appended");
+        fail(c.path, at + "unknown DataArray format '" + format + "', expected ascii, binary or appended");
     }
-    return convert_coords(path, raw.data(), 3 * n, *type, dec.big_endian());
+    if (coords) return convert_coords(c.path, raw.data(), count, *type, c.dec.big_endian(), !keep_invalid, {SIZE_MAX, at + what});
+    return convert_values(raw.data(), count, *type, c.dec.big_endian());
+}
+
+/// The requested PointData arrays of a piece of n points, appended to the sink.
+void read_point_data(const VtuContext& c, std::string_view xml, std::size_t from, std::size_t piece_end,
+                     std::uint64_t n, AttributeSink& sink) {
+    const auto pd = find_tag(c.path, xml, "PointData", from, piece_end);
+    if (!pd || pd->self_closing) return;
+    std::size_t end = xml.find("</PointData>", pd->end);
+    if (end == std::string_view::npos || end > piece_end) end = piece_end;
+    for (auto a = find_tag(c.path, xml, "DataArray", pd->end, end); a; a = find_tag(c.path, xml, "DataArray", a->end, end)) {
+        const int index = sink.wanted(a->get("Name"));
+        if (index < 0) continue;
+        const std::string what = "PointData '" + a->get("Name") + "'";
+        std::uint64_t comps;
+        if (!parse_u64(a->get("NumberOfComponents", "1"), comps) || (comps != 1 && comps != 3))
+            fail(c.path, "offset " + std::to_string(a->begin) + ": " + what + " has NumberOfComponents=\"" +
+                             a->get("NumberOfComponents") + "\", expected 1 or 3");
+        sink.append(index, static_cast<int>(comps), read_data_array(c, *a, n, comps, what, false, false),
+                    "offset " + std::to_string(a->begin));
+    }
 }
 
 }  // namespace
 
-std::vector<float> read_vtu_points(const std::string& path, const std::string& file) {
+ParticleSet read_vtu(const ReadRequest& r) {
+    const std::string& path = r.path;
+    const std::string& file = r.data;
     std::size_t xml_end;
     const auto app = find_appended(path, file, xml_end);
     const std::string_view xml = std::string_view(file).substr(0, xml_end);
     const auto root = find_tag(path, xml, "VTKFile", 0, xml.size());
     if (!root) fail(path, "not a VTK XML file: no <VTKFile> tag");
     const VtuDecoder dec(path, *root);
-    std::vector<float> out;
+    const VtuContext ctx{path, file, dec, app};
+    AttributeSink sink(r);
+    ParticleSet set;
     bool any = false;
     for (auto piece = find_tag(path, xml, "Piece", root->end, xml.size()); piece;
          piece = find_tag(path, xml, "Piece", piece->end, xml.size())) {
@@ -312,12 +401,19 @@ std::vector<float> read_vtu_points(const std::string& path, const std::string& f
             if (n) fail(path, at + "Piece with NumberOfPoints=" + std::to_string(n) + " has no <Points><DataArray>");
             continue;
         }
-        const auto pts = read_piece_points(path, file, *array, n, dec, app);
-        out.insert(out.end(), pts.begin(), pts.end());
+        if (array->get("NumberOfComponents", "3") != "3")
+            fail(path, "offset " + std::to_string(array->begin) + ": Points must have NumberOfComponents=\"3\"");
+        const auto pts = read_data_array(ctx, *array, n, 3, "the Points", true, r.keep_invalid);
+        set.positions.insert(set.positions.end(), pts.begin(), pts.end());
+        sink.next_piece();
+        if (!r.attributes.empty()) read_point_data(ctx, xml, piece->end, piece_end, n, sink);
         any = true;
     }
     if (!any) fail(path, "no <Piece> with <Points> found");
-    return out;
+    set.attributes = sink.finish(set.size());
+    return set;
 }
+
+std::vector<float> read_vtu_points(const std::string& path, const std::string& data) { return read_vtu({path, data, {}, false}).positions; }
 
 }  // namespace trilevel::io

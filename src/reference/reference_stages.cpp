@@ -96,7 +96,7 @@ ParticleFlags color_field(const std::vector<glm::vec3>& x, float r, float R) {
         int count = 0;
         grid.for_each_neighbour(x[i], [&](int j, glm::vec3 xj, double d2) {
             if (std::size_t(j) == i) return;
-            ++count;
+            if (d2 > double(constants::kSameSpot) * constants::kSameSpot * R * R) ++count;  // else the same spot
             c += poly6(d2, R);
             g += poly6_gradient_factor(d2, R) * glm::dvec3(x[i] - xj);
         });
@@ -325,27 +325,25 @@ double radius_factor(double ev_max) {
     return g * g * g - 3.0 * g * g + 3.0 * g;
 }
 
-FieldSample scalar_field_sample(glm::vec3 x, const ParticleGrid& grid, float r) {
-    const double R = grid.radius();
+FieldSample field_from_offsets(const glm::dvec3* y, std::size_t count, double r, double R,
+                               double (*eigenvalue)(const double J[3][3])) {
     // Sums over y_j = x_j - x (small numbers, no cancellation against large coordinates):
     // K, sum k_j y_j, sum grad k_j, sum y_j (x) grad k_j.
     FieldSample s;
     glm::dvec3 ky(0.0), gk(0.0);
     glm::dmat3 ygk(0.0);  // column-major: ygk[b][a] = sum y_a (grad k)_b
-    grid.for_each_neighbour(x, [&](int, glm::vec3 xj, double d2) {
-        const glm::dvec3 y(xj - x);
-        const double u = 1.0 - d2 / (R * R);
+    for (std::size_t j = 0; j < count; ++j) {
+        const double u = 1.0 - glm::dot(y[j], y[j]) / (R * R);
         const double k = u * u * u;
-        const glm::dvec3 grad = 6.0 * u * u * y / (R * R);  // grad k_j = -6 (1 - s^2)^2 (x - x_j) / R^2
+        const glm::dvec3 grad = 6.0 * u * u * y[j] / (R * R);  // grad k_j = -6 (1 - s^2)^2 (x - x_j) / R^2
         s.K += k;
-        ky += k * y;
+        ky += k * y[j];
         gk += grad;
-        ygk += glm::outerProduct(y, grad);
-        ++s.neighbours;
-    });
+        ygk += glm::outerProduct(y[j], grad);
+    }
+    s.neighbours = int(count);
     if (s.K <= 0.0) {
         s.phi = R;
-        s.xbar = glm::dvec3(x);
         return s;
     }
     const glm::dvec3 ybar = ky / s.K;
@@ -354,10 +352,19 @@ FieldSample scalar_field_sample(glm::vec3 x, const ParticleGrid& grid, float r) 
     double J[3][3];
     for (int a = 0; a < 3; ++a)
         for (int b = 0; b < 3; ++b) J[a][b] = Jm[b][a];
-    s.xbar = glm::dvec3(x) + ybar;
-    s.ev_max = largest_real_eigenvalue(J);
+    s.xbar = ybar;
+    s.ev_max = eigenvalue(J);
     s.f = radius_factor(s.ev_max);
     s.phi = glm::length(ybar) - r * s.f;
+    return s;
+}
+
+FieldSample scalar_field_sample(glm::vec3 x, const ParticleGrid& grid, float r) {
+    thread_local std::vector<glm::dvec3> y;
+    y.clear();
+    grid.for_each_neighbour(x, [&](int, glm::vec3 xj, double) { y.emplace_back(xj - x); });
+    FieldSample s = field_from_offsets(y.data(), y.size(), r, grid.radius());
+    s.xbar += glm::dvec3(x);
     return s;
 }
 

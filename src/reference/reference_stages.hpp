@@ -125,6 +125,11 @@ struct FieldSample {
 /// f(EVmax): 1 below kEvLow, 0 above kEvHigh, gamma^3 - 3 gamma^2 + 3 gamma in between.
 double radius_factor(double ev_max);
 
+/// The field at x from the offsets y_j = x_j - x of its neighbours (|y_j| < R), summed in the
+/// given order; xbar is returned relative to x. The normals (host/vertex_normals.cpp) call it at
+/// points off the lattice with a faster eigenvalue method.
+FieldSample field_from_offsets(const glm::dvec3* y, std::size_t count, double r, double R,
+                               double (*eigenvalue)(const double J[3][3]) = largest_real_eigenvalue);
 FieldSample scalar_field_sample(glm::vec3 x, const ParticleGrid& grid, float r);
 float scalar_field(glm::vec3 x, const ParticleGrid& grid, float r);
 /// The field at every point (TBB over points); the grid is built with cell R.

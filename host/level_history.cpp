@@ -1,0 +1,59 @@
+// Level history between the frames of a sequence (level_history.hpp).
+#include "level_history.hpp"
+
+#include <algorithm>
+
+#include "lattice.hpp"
+
+namespace trilevel {
+
+std::uint8_t LevelHistory::previous(glm::ivec3 c, const CoarseBase& base) const {
+    std::int64_t rel[3];
+    for (int a = 0; a < 3; ++a) {
+        rel[a] = std::int64_t(c[a]) + base[std::size_t(a)] - base_[std::size_t(a)];
+        if (rel[a] < 0 || rel[a] > lattice::kMaxCoord) return 0;
+    }
+    const std::uint64_t key = lattice::pack(std::int32_t(rel[0]), std::int32_t(rel[1]), std::int32_t(rel[2]));
+    auto it = std::lower_bound(levels_.begin(), levels_.end(), key, [](const auto& e, std::uint64_t k) { return e.first < k; });
+    return it != levels_.end() && it->first == key ? it->second : 0;
+}
+
+std::size_t LevelHistory::apply(std::vector<CoarseCell>& cells, const std::vector<float>& curvature,
+                                const std::vector<std::uint8_t>& forced, const CoarseBase& base, float threshold,
+                                float h) const {
+    if (!valid_ || h <= 0.0f) return 0;
+    const float stay3 = threshold * (1.0f - h), stay2 = threshold * (1.0f + h);
+    std::size_t held = 0;
+    for (std::size_t i = 0; i < cells.size(); ++i) {
+        if (forced[i]) continue;
+        const std::uint8_t before = previous(cells[i].coord, base);
+        if (before == 0) continue;
+        const std::uint8_t level = before == 3 ? (curvature[i] >= stay3 ? 3 : 2) : (curvature[i] >= stay2 ? 3 : 2);
+        held += level != cells[i].level ? 1 : 0;
+        cells[i].level = level;
+    }
+    return held;
+}
+
+LevelHistory::Flips LevelHistory::compare(const std::vector<CoarseCell>& cells, const CoarseBase& base) const {
+    Flips f;
+    if (!valid_) return f;
+    for (const CoarseCell& c : cells) {
+        const std::uint8_t before = previous(c.coord, base);
+        if (before == 0) continue;
+        ++f.compared;
+        f.changed += before != c.level ? 1 : 0;
+    }
+    return f;
+}
+
+void LevelHistory::record(const std::vector<CoarseCell>& cells, const CoarseBase& base) {
+    levels_.clear();
+    levels_.reserve(cells.size());
+    for (const CoarseCell& c : cells) levels_.emplace_back(lattice::pack(c.coord), c.level);
+    std::sort(levels_.begin(), levels_.end());
+    base_ = base;
+    valid_ = true;
+}
+
+}  // namespace trilevel

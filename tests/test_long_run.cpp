@@ -1,0 +1,140 @@
+// Long runs (issue 5, item 7): one Reconstructor reused for 200 frames keeps its memory and holds
+// no OpenCL buffer between frames; two Reconstructors in two threads give the single-threaded
+// meshes. Run alone with `ctest -R "long run"` or `trilevel_tests "[long]"`.
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "opencl_runtime.hpp"
+#include "test_support.hpp"
+#include "trilevel/io.hpp"
+#include "trilevel/trilevel.hpp"
+
+using namespace trilevel;
+
+namespace {
+
+/// A field of /proc/self/status in bytes ("VmHWM": peak resident, "VmRSS": resident now).
+std::uint64_t status_bytes(const std::string& field) {
+    std::ifstream in("/proc/self/status");
+    std::string line;
+    while (std::getline(in, line))
+        if (line.rfind(field + ":", 0) == 0) return std::stoull(line.substr(field.size() + 1)) * 1024;
+    return 0;
+}
+
+std::int64_t settled_live_buffers() {  // PoCL releases buffers used by finished commands on its own threads
+    for (int i = 0; i < 200 && live_device_buffers() != 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    return live_device_buffers();
+}
+
+/// Frame f of a generated sequence with a period of 20 frames, so that the first 20 frames hold
+/// every size the later ones do: a pool of 16x3x16 particles, a ball of radius 5 spacings that
+/// falls into it, and a ring of droplets whose count and spread change with the phase.
+std::vector<float> sequence_frame(int f, float r) {
+    const int phase = f % 20;
+    const float s = 2.0f * r;  // rest spacing
+    std::vector<float> x;
+    auto jitter = [&](int i, int j, int k) { return 0.02f * s * float(((i * 73 + j * 37 + k * 11 + phase * 5) % 17) - 8) / 8.0f; };
+    for (int k = 0; k < 16; ++k)
+        for (int j = 0; j < 3; ++j)
+            for (int i = 0; i < 16; ++i) x.insert(x.end(), {i * s + jitter(i, j, k), j * s + jitter(j, k, i), k * s + jitter(k, i, j)});
+    const float drop = 24.0f * s - 1.1f * s * float(phase);  // ball centre height
+    for (int k = -5; k <= 5; ++k)
+        for (int j = -5; j <= 5; ++j)
+            for (int i = -5; i <= 5; ++i)
+                if (i * i + j * j + k * k <= 25)
+                    x.insert(x.end(), {(7.5f + i) * s + jitter(i, k, j), drop + j * s, (7.5f + k) * s + jitter(k, j, i)});
+    const int droplets = 4 + 2 * phase;
+    for (int d = 0; d < droplets; ++d) {
+        const float a = 6.2831853f * float(d) / float(droplets), rad = (10.0f + 0.5f * float(phase)) * s;
+        x.insert(x.end(), {7.5f * s + rad * std::cos(a), (4.0f + 0.3f * float(phase)) * s, 7.5f * s + rad * std::sin(a)});
+    }
+    return x;
+}
+
+Params params(float r) {
+    Params p;
+    p.particle_radius = r;
+    return p;
+}
+
+}  // namespace
+
+TEST_CASE("long run: 200 frames through one Reconstructor keep memory and OpenCL objects stable", "[long]") {
+    const float r = 0.025f;
+    Reconstructor rec;
+    std::uint64_t hwm20 = 0, rss20 = 0;
+    std::size_t triangles = 0;
+    Mesh mesh20;
+    const auto start = std::chrono::steady_clock::now();
+    for (int f = 1; f <= 200; ++f) {
+        const std::vector<float> x = sequence_frame(f, r);
+        Stats st;
+        const Mesh m = rec.reconstruct(x.data(), x.size() / 3, params(r), &st);
+        REQUIRE(st.closed);
+        REQUIRE(m.triangle_count() > 0);
+        triangles += m.triangle_count();
+        if (f == 200) {  // the sequence repeats every 20 frames: frame 200 is frame 20, bit for bit
+            REQUIRE(m.positions == mesh20.positions);
+            REQUIRE(m.triangles == mesh20.triangles);
+        }
+        if (f == 20) {
+            mesh20 = m;
+            REQUIRE(settled_live_buffers() == 0);
+            hwm20 = status_bytes("VmHWM");
+            rss20 = status_bytes("VmRSS");
+        }
+    }
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    REQUIRE(settled_live_buffers() == 0);  // every device buffer of 200 frames released
+    const std::uint64_t hwm200 = status_bytes("VmHWM"), rss200 = status_bytes("VmRSS");
+    std::printf("long run: 200 frames, %zu triangles, %.1f s; peak RSS %.1f MB after frame 20, %.1f MB after 200; "
+                "RSS %.1f -> %.1f MB\n",
+                triangles, seconds, hwm20 / 1e6, hwm200 / 1e6, rss20 / 1e6, rss200 / 1e6);
+    REQUIRE(hwm20 > 0);
+    CHECK(double(hwm200) <= 1.05 * double(hwm20));
+    CHECK(double(rss200) <= 1.05 * double(rss20));
+}
+
+TEST_CASE("long run: two Reconstructors in two threads give the single-threaded meshes", "[long][threads]") {
+    const float r = 0.025f;
+    const ParticleSet a = generate_scene("pool-and-drop", r, 7), b = generate_scene("dam-break", r, 8);
+    Mesh alone_a, alone_b;
+    {
+        Reconstructor rec;
+        alone_a = rec.reconstruct(a.positions.data(), a.size(), params(r));
+        alone_b = rec.reconstruct(b.positions.data(), b.size(), params(r));
+    }
+    auto same = [](const Mesh& x, const Mesh& y) {
+        return x.positions == y.positions && x.triangles == y.triangles && x.vertex_level == y.vertex_level &&
+               x.triangle_kind == y.triangle_kind;
+    };
+    constexpr int kRounds = 4;
+    std::vector<Mesh> out_a(kRounds), out_b(kRounds);
+    std::string err_a, err_b;
+    auto worker = [&](const ParticleSet& s, std::vector<Mesh>& out, std::string& err) {
+        try {
+            Reconstructor rec;  // one per thread
+            for (auto& m : out) m = rec.reconstruct(s.positions.data(), s.size(), params(r));
+        } catch (const std::exception& e) {
+            err = e.what();
+        }
+    };
+    std::thread ta(worker, std::cref(a), std::ref(out_a), std::ref(err_a));
+    std::thread tb(worker, std::cref(b), std::ref(out_b), std::ref(err_b));
+    ta.join();
+    tb.join();
+    REQUIRE(err_a.empty());
+    REQUIRE(err_b.empty());
+    for (int i = 0; i < kRounds; ++i) {
+        INFO("round " << i);
+        REQUIRE(same(out_a[i], alone_a));
+        REQUIRE(same(out_b[i], alone_b));
+    }
+    CHECK(settled_live_buffers() == 0);
+}
