@@ -113,6 +113,33 @@ std::string vtk_text_values(const std::vector<float>& v) {
     return s + "\n";
 }
 
+/// Per-particle attribute values of the seeds: density (1 component) and velocity (3).
+std::vector<float> densities(std::size_t n) {
+    std::vector<float> d(n);
+    for (std::size_t i = 0; i < n; ++i) d[i] = 1000.0f + static_cast<float>(i);
+    return d;
+}
+std::vector<float> velocities(std::size_t n) {
+    std::vector<float> v(3 * n);
+    for (std::size_t i = 0; i < 3 * n; ++i) v[i] = 0.25f * static_cast<float>(i % 7) - 0.5f;
+    return v;
+}
+
+/// POINT_DATA with density (SCALARS) and velocity (VECTORS, or a FIELD array), ASCII or binary.
+std::string vtk_point_data(std::size_t n, bool binary, bool as_field) {
+    auto values = [&](const std::vector<float>& v) {
+        if (!binary) return vtk_text_values(v);
+        std::string b;
+        for (float x : v) b += bytes_of(x, true);
+        return b + "\n";
+    };
+    const std::string count = std::to_string(n);
+    std::string s = "POINT_DATA " + count + "\nSCALARS density float 1\nLOOKUP_TABLE default\n" + values(densities(n));
+    if (as_field) s += "FIELD FieldData 1\nvelocity 3 " + count + " float\n" + values(velocities(n));
+    else s += "VECTORS velocity float\n" + values(velocities(n));
+    return s;
+}
+
 void vtk_seeds(const std::vector<float>& pts) {
     ParticleSet set;
     set.positions = pts;
@@ -121,17 +148,19 @@ void vtk_seeds(const std::vector<float>& pts) {
     std::string bin_f, bin_d;
     for (float p : pts) { bin_f += bytes_of(p, true); bin_d += bytes_of(double(p), true); }
     put("vtk", "binary-double-polydata.vtk",
-        "# vtk DataFile Version 4.2\nparticles\nBINARY\nDATASET POLYDATA\nPOINTS " + n + " double\n" + bin_d + "\nVERTICES 0 0\n");
+        "# vtk DataFile Version 4.2\nparticles\nBINARY\nDATASET POLYDATA\nPOINTS " + n + " double\n" + bin_d + "\nVERTICES 0 0\n" + vtk_point_data(pts.size() / 3, true, true));
     put("vtk", "ascii-float-field.vtk",
         "# vtk DataFile Version 5.1\nvtk output\nASCII\nDATASET UNSTRUCTURED_GRID\nFIELD FieldData 2\ntime 1 1 double\n0.25\n"
         "cycle 1 1 int\n7\nPOINTS " + n + " float\n" + vtk_text_values(pts) +
-        "CELLS 3 2\nOFFSETS vtktypeint64\n0 1 2\nCONNECTIVITY vtktypeint64\n0 1\nCELL_TYPES 2\n1 1\n");
+        "CELLS 3 2\nOFFSETS vtktypeint64\n0 1 2\nCONNECTIVITY vtktypeint64\n0 1\nCELL_TYPES 2\n1 1\n" +
+        vtk_point_data(pts.size() / 3, false, false));
     put("vtk", "ascii-double-structured.vtk",
         "# vtk DataFile Version 3.0\ngrid\nascii\nDATASET STRUCTURED_GRID\nDIMENSIONS " + n + " 1 1\nPOINTS " + n + " double\n" +
         vtk_text_values(pts) + "POINT_DATA " + n + "\nSCALARS density float 1\nLOOKUP_TABLE default\n");
     put("vtk", "binary-metadata-field.vtk",
         "# vtk DataFile Version 5.1\nx\nBINARY\nDATASET UNSTRUCTURED_GRID\nFIELD f 1\nid 1 2 int\n" + bytes_of(std::int32_t(1), true) +
-        bytes_of(std::int32_t(2), true) + "\nMETADATA\nINFORMATION 0\n\nPOINTS " + n + " float\n" + bin_f + "\n");
+        bytes_of(std::int32_t(2), true) + "\nMETADATA\nINFORMATION 0\n\nPOINTS " + n + " float\n" + bin_f + "\n" +
+        vtk_point_data(pts.size() / 3, true, false));
     std::string ints;
     for (std::size_t i = 0; i < pts.size(); ++i) ints += std::to_string(int(pts[i] * 100)) + " ";
     put("vtk", "ascii-int.vtk", "# vtk DataFile Version 2.0\nints\nASCII\nDATASET POLYDATA\nPOINTS " + n + " int\n" + ints + "\n");
@@ -144,15 +173,17 @@ struct VtuVariant {
     bool zlib = false, joint = false, base64_appended = false, u32 = false, big = false, f32 = false;
 };
 
-/// A VTU file holding pts in two pieces, stored as the variant says (zlib blocks of 64 bytes).
+/// A VTU file holding pts in two pieces, with density (ascii) and velocity (stored like the
+/// points) point data, stored as the variant says (zlib blocks of 64 bytes).
 std::string make_vtu(const std::vector<float>& pts, const VtuVariant& v) {
     const std::size_t half = pts.size() / 6 * 3;
     const std::vector<float> parts[2] = {{pts.begin(), pts.begin() + half}, {pts.begin() + half, pts.end()}};
     auto word = [&](std::uint64_t w) { return v.u32 ? bytes_of(std::uint32_t(w), v.big) : bytes_of(w, v.big); };
     std::string pieces, appended;
-    for (const auto& part : parts) {
+    // the rest of a <DataArray ...> tag holding `values`: inline text or an offset into `appended`
+    auto array_body = [&](const std::vector<float>& values) {
         std::string raw;
-        for (float p : part) raw += v.f32 ? bytes_of(p, v.big) : bytes_of(double(p), v.big);
+        for (float p : values) raw += v.f32 ? bytes_of(p, v.big) : bytes_of(double(p), v.big);
         std::string header, payload;
         if (v.zlib) {
             const std::size_t bs = 64, nb = (raw.size() + bs - 1) / bs;
@@ -166,22 +197,22 @@ std::string make_vtu(const std::vector<float>& pts, const VtuVariant& v) {
             header = word(raw.size());
             payload = raw;
         }
-        std::string body;
-        if (v.format == "ascii") {
-            body = ">\n" + vtk_text_values(part) + "</DataArray>";
-        } else {
-            const std::string enc = v.joint ? b64(header + payload) : b64(header) + b64(payload);
-            if (v.format == "binary") {
-                body = ">\n  " + enc + "\n</DataArray>";
-            } else {
-                body = " offset=\"" + std::to_string(appended.size()) + "\"/>";
-                appended += v.base64_appended ? enc : header + payload;
-            }
-        }
-        pieces += "<Piece NumberOfPoints=\"" + std::to_string(part.size() / 3) +
-                  "\" NumberOfCells=\"0\">\n<PointData>\n<DataArray type=\"Float32\" Name=\"density\" format=\"ascii\">1 2</DataArray>\n"
-                  "</PointData>\n<Points>\n<DataArray type=\"" + (v.f32 ? "Float32" : "Float64") +
-                  "\" Name=\"Points\" NumberOfComponents=\"3\" format=\"" + v.format + "\"" + body + "\n</Points>\n</Piece>\n";
+        if (v.format == "ascii") return ">\n" + vtk_text_values(values) + "</DataArray>";
+        const std::string enc = v.joint ? b64(header + payload) : b64(header) + b64(payload);
+        if (v.format == "binary") return ">\n  " + enc + "\n</DataArray>";
+        const std::string offset = " offset=\"" + std::to_string(appended.size()) + "\"/>";
+        appended += v.base64_appended ? enc : header + payload;
+        return offset;
+    };
+    const std::string type = std::string(" type=\"") + (v.f32 ? "Float32" : "Float64") + "\"";
+    const std::string format = " format=\"" + v.format + "\"";
+    for (const auto& part : parts) {
+        const std::size_t n = part.size() / 3;
+        pieces += "<Piece NumberOfPoints=\"" + std::to_string(n) + "\" NumberOfCells=\"0\">\n<PointData>\n"
+                  "<DataArray type=\"Float32\" Name=\"density\" format=\"ascii\">" + vtk_text_values(densities(n)) + "</DataArray>\n"
+                  "<DataArray" + type + " Name=\"velocity\" NumberOfComponents=\"3\"" + format + array_body(velocities(n)) + "\n"
+                  "</PointData>\n<Points>\n<DataArray" + type + " Name=\"Points\" NumberOfComponents=\"3\"" + format +
+                  array_body(part) + "\n</Points>\n</Piece>\n";
     }
     std::string s = "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"" +
                     std::string(v.big ? "BigEndian" : "LittleEndian") + "\" header_type=\"" + (v.u32 ? "UInt32" : "UInt64") + "\"" +
@@ -218,16 +249,18 @@ std::string bgeo_file(const std::vector<float>& pts, bool with_attributes) {
     auto i32 = [](std::int32_t v) { return bytes_of(v, true); };
     auto u16 = [](std::uint16_t v) { return bytes_of(v, true); };
     const auto n = static_cast<std::int32_t>(pts.size() / 3);
-    std::string s = "BgeoV" + i32(5) + i32(n) + i32(0) + i32(0) + i32(0) + i32(with_attributes ? 3 : 0) + i32(0) + i32(0) + i32(0);
+    std::string s = "BgeoV" + i32(5) + i32(n) + i32(0) + i32(0) + i32(0) + i32(with_attributes ? 4 : 0) + i32(0) + i32(0) + i32(0);
     if (with_attributes) {
         s += u16(2) + "id" + u16(1) + i32(1) + i32(0);                                        // int
         s += u16(8) + "velocity" + u16(3) + i32(5) + i32(0) + i32(0) + i32(0);                // vector
         s += u16(4) + "kind" + u16(1) + i32(4) + i32(2) + u16(5) + "water" + u16(3) + "air";  // indexed string
+        s += u16(7) + "density" + u16(1) + i32(0) + i32(0);                                     // float
     }
     for (std::int32_t i = 0; i < n; ++i) {
         for (int k = 0; k < 3; ++k) s += bytes_of(pts[3 * i + k], true);
         s += bytes_of(1.0f, true);
-        if (with_attributes) s += i32(i) + bytes_of(0.5f, true) + bytes_of(-0.5f, true) + bytes_of(2.0f, true) + i32(i % 2);
+        if (with_attributes)
+            s += i32(i) + bytes_of(0.5f, true) + bytes_of(-0.5f, true) + bytes_of(2.0f, true) + i32(i % 2) + bytes_of(1000.0f + i, true);
     }
     return s + std::string("\x00\xff", 2);
 }
@@ -249,7 +282,8 @@ std::string ply_file(const std::vector<float>& pts, const std::string& format, b
     const std::string t = doubles ? "double" : "float";
     std::string s = "ply\nformat " + format + " 1.0\ncomment seed\nobj_info trilevel\nelement camera 1\nproperty float fov\n"
                     "property list uchar int ids\nelement vertex " + std::to_string(n) + "\nproperty uchar flag\nproperty " + t +
-                    " z\nproperty " + t + " x\nproperty list uchar float extra\nproperty " + t + " y\nelement face 0\n"
+                    " z\nproperty " + t + " x\nproperty list uchar float extra\nproperty " + t + " y\nproperty float density\n"
+                    "property float velocity_x\nproperty float velocity_y\nproperty float velocity_z\nelement face 0\n"
                     "property list uchar int vertex_indices\nend_header\n";
     const bool ascii = format == "ascii", big = format == "binary_big_endian";
     auto num = [&](auto v) { return ascii ? num_text(double(v)) + " " : bytes_of(v, big); };
@@ -259,7 +293,8 @@ std::string ply_file(const std::vector<float>& pts, const std::string& format, b
         s += num(std::uint8_t(1)) + (doubles ? num(double(z)) + num(double(x)) : num(z) + num(x));
         s += num(std::uint8_t(i % 3));
         for (std::size_t k = 0; k < i % 3; ++k) s += num(0.5f);
-        s += (doubles ? num(double(y)) : num(y)) + (ascii ? "\n" : "");
+        s += doubles ? num(double(y)) : num(y);
+        s += num(1000.0f + i) + num(0.5f) + num(-0.25f) + num(float(i)) + (ascii ? "\n" : "");
     }
     return s;
 }
@@ -297,6 +332,9 @@ Mesh octahedron() {
     m.positions = {1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1};
     m.triangles = {0, 2, 4, 2, 1, 4, 1, 3, 4, 3, 0, 4, 2, 0, 5, 1, 2, 5, 3, 1, 5, 0, 3, 5};
     m.vertex_level = {2, 3, 2, 3, 2, 3};
+    m.normals = m.positions;  // the unit vertex directions are the outward normals
+    m.attributes.push_back({"density", 1, {1000, 1001, 1002, 1003, 1004, 1005}});
+    m.attributes.push_back({"velocity", 3, velocities(6)});
     return m;
 }
 
@@ -305,7 +343,11 @@ void mesh_seeds() {
     const fs::path d = dir("mesh");
     trilevel::write_mesh((d / "written-levels.ply").string(), m);
     trilevel::write_mesh((d / "written-colours.ply").string(), m, {true, true});
-    trilevel::write_mesh((d / "written-plain.ply").string(), m, {false, false});
+    Mesh plain = m;
+    plain.normals.clear();
+    plain.attributes.clear();
+    trilevel::write_mesh((d / "written-plain.ply").string(), plain, {false, false});
+    trilevel::write_mesh((d / "written-plain.vtk").string(), plain);
     trilevel::write_mesh((d / "written.obj").string(), m);
     trilevel::write_mesh((d / "written.vtk").string(), m);
     std::string ply = "ply\nformat ascii 1.0\nelement vertex 6\nproperty double x\nproperty double y\nproperty double z\n"
@@ -327,14 +369,23 @@ void mesh_seeds() {
 /// Every seed must be read without error, or the fuzzer starts from rejections only.
 void check_seeds() {
     for (const auto& target : {"vtk", "vtu", "bgeo", "ply", "xyz", "mesh"}) {
-        std::size_t files = 0;
+        std::size_t files = 0, with_attributes = 0;
         for (const auto& e : fs::directory_iterator(dir(target))) {
             const std::string f = e.path().string();
-            const std::size_t n = std::string(target) == "mesh" ? trilevel::read_mesh(f).vertex_count() : trilevel::read_particles(f).size();
+            const bool mesh = std::string(target) == "mesh";
+            const std::size_t n = mesh ? trilevel::read_mesh(f).vertex_count() : trilevel::read_particles(f).size();
             if (n == 0) throw std::runtime_error(f + ": seed holds no points");
             ++files;
+            try {  // the fuzz targets ask for these two: some seeds must have them
+                if (mesh ? !trilevel::read_mesh(f).attributes.empty()
+                         : trilevel::read_particles(f, {{"velocity", "density"}, false}).attributes.size() == 2)
+                    ++with_attributes;
+            } catch (const trilevel::Error&) {
+            }
         }
-        std::cout << "corpus-" << target << ": " << files << " seeds\n";
+        std::cout << "corpus-" << target << ": " << files << " seeds, " << with_attributes << " with velocity and density\n";
+        if (with_attributes == 0 && std::string(target) != "xyz")
+            throw std::runtime_error(std::string("no seed of corpus-") + target + " holds velocity and density");
     }
 }
 
