@@ -8,6 +8,8 @@
 #     --out DIR       where the grown corpora, logs and findings go (default: <binary dir>/out);
 #                     a second run goes on from the corpora grown by the first
 #     --jobs N        at most N targets at a time (default: all)
+#     --keep-going    go on after a finding (libFuzzer's -fork=1 with crashes, timeouts and OOMs
+#                     ignored), so that one long run collects every distinct finding
 #   Environment: CXX (default clang++-14) and BUILD_DIR (default build-fuzz) for the build;
 #   FUZZ_NICE (default 0) for the niceness of the fuzzers.
 #
@@ -16,14 +18,15 @@
 # reproduce it with `DIR/fuzz_<target> FILE`, minimise with `-minimize_crash=1 -runs=10000 FILE`.
 set -euo pipefail
 
-usage() { sed -n '2,18p' "$0" | sed 's/^# \{0,1\}//'; exit 2; }
+usage() { sed -n '2,/^set /s/^# \{0,1\}//p' "$0" | grep -v '^set '; exit 2; }
 
-prebuilt="" out="" jobs=0
+prebuilt="" out="" jobs=0 mode=()
 while [ $# -gt 0 ]; do
   case "$1" in
     --prebuilt) prebuilt="$2"; shift 2 ;;
     --out) out="$2"; shift 2 ;;
     --jobs) jobs="$2"; shift 2 ;;
+    --keep-going) mode=(-fork=1 -ignore_crashes=1 -ignore_timeouts=1 -ignore_ooms=1); shift ;;
     -h|--help) usage ;;
     --*) echo "run_fuzz.sh: unknown option $1" >&2; usage ;;
     *) break ;;
@@ -60,7 +63,7 @@ run_one() {
   [ -f "$dir/$t.dict" ] && dict=(-dict="$dir/$t.dict")
   # The first corpus directory receives the new inputs; the seeds stay untouched.
   nice -n "${FUZZ_NICE:-0}" "$dir/fuzz_$t" -max_total_time="$seconds" -timeout=1 -rss_limit_mb=2048 \
-    -malloc_limit_mb=2048 -print_final_stats=1 -artifact_prefix="$out/findings/$t/" "${dict[@]}" \
+    -malloc_limit_mb=2048 -print_final_stats=1 -artifact_prefix="$out/findings/$t/" "${dict[@]}" "${mode[@]}" \
     "$out/corpus-$t" "$dir/corpus-$t" >"$out/logs/$t.log" 2>&1
 }
 
@@ -82,7 +85,11 @@ for t in "${targets[@]}"; do
   log="$out/logs/$t.log"
   execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
   rate=$(sed -n 's/^stat::average_exec_per_sec: *//p' "$log" | tail -1)
-  cov=$(grep -o 'cov: [0-9]*' "$log" | tail -1 | cut -d' ' -f2)
+  if [ -z "$execs" ]; then  # fork mode: the last status line, "#N: cov: .. exec/s R .."
+    execs=$(sed -n 's/^#\([0-9]*\): cov:.*/\1/p' "$log" | tail -1)
+    rate=$(sed -n 's/^#[0-9]*: cov:.* exec\/s \([0-9]*\).*/\1/p' "$log" | tail -1)
+  fi
+  cov=$(grep -o 'cov: [0-9]*' "$log" | tail -1 | cut -d' ' -f2 || true)
   found=$(find "$out/findings/$t" -type f | wc -l)
   printf '%-6s %8s %10s %8s %8s  %s\n' "$t" "$rc" "${execs:--}" "${rate:--}" "${cov:--}" "$found"
   if [ "$rc" -ne 0 ] || [ "$found" -gt 0 ]; then
