@@ -1,10 +1,11 @@
-// One libFuzzer target per reader: TRILEVEL_FUZZ_FORMAT names the particle format ("vtk", "vtu",
-// "bgeo", "ply", "xyz": the format's reader as read_particles calls it) or "mesh" for read_mesh
-// (PLY, OBJ or legacy VTK, told apart by the first bytes). The input is the whole file, in memory;
-// a particle reader reads it twice, as read_particles would without and with attributes.
-// trilevel::Error is the clean rejection; anything else is a finding: a crash, a sanitizer report, another exception (it escapes and
-// aborts), a leak, a timeout, too much memory (run_fuzz.sh sets the limits), or a result that
-// breaks what the readers promise (checked below, failing with abort()).
+// The fuzz targets' body: one libFuzzer target per reader, TRILEVEL_FUZZ_FORMAT naming the particle
+// format ("vtk", "vtu", "bgeo", "ply", "xyz": the format's reader as read_particles calls it) or
+// "mesh" for read_mesh (PLY, OBJ or legacy VTK, told apart by the first bytes). The input is the
+// whole file, in memory; a particle reader reads it twice, as read_particles would without and with
+// attributes. Without TRILEVEL_FUZZ_FORMAT this is the body of trilevel_fuzz_replay (replay.cpp).
+// trilevel::Error is the clean rejection; anything else is a finding: a crash, a sanitizer report,
+// another exception (it escapes and aborts), a leak, a timeout, too much memory (run_fuzz.sh sets
+// the limits), or a result that breaks what the readers promise (checked below, failing with abort()).
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -12,11 +13,8 @@
 #include <string>
 #include <vector>
 
+#include "fuzz_reader.hpp"
 #include "io/particle_formats.hpp"
-
-#ifndef TRILEVEL_FUZZ_FORMAT
-#error "define TRILEVEL_FUZZ_FORMAT"
-#endif
 
 namespace {
 
@@ -98,12 +96,10 @@ std::string mesh_extension(const std::string& data) {
 
 }  // namespace
 
-extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* bytes, std::size_t size) {
-    const std::string data(reinterpret_cast<const char*>(bytes), size);
-    const std::string format = TRILEVEL_FUZZ_FORMAT;
+void trilevel_fuzz_one(const std::string& format, const std::string& data) {
     if (format != "mesh") {
         fuzz_particles(format, data);
-        return 0;
+        return;
     }
     const std::string ext = mesh_extension(data);
     try {
@@ -111,5 +107,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* bytes, std::size_t siz
     } catch (const trilevel::Error& e) {
         check_error(e);
     }
+}
+
+#ifdef TRILEVEL_FUZZ_FORMAT
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* bytes, std::size_t size) {
+    trilevel_fuzz_one(TRILEVEL_FUZZ_FORMAT, std::string(reinterpret_cast<const char*>(bytes), size));
     return 0;
 }
+#endif
