@@ -136,7 +136,7 @@ std::vector<trilevel::ParticleAttribute> requested_attributes(const std::string&
     for (const auto& name : names) {
         const auto it = std::find_if(set.attributes.begin(), set.attributes.end(), [&](const auto& a) { return a.name == name; });
         if (it == set.attributes.end())
-            throw trilevel::Error(input + ": no particle attribute '" + name + "' (attributes are read from .vtk, .vtu and .bgeo files)");
+            throw trilevel::Error(input + ": no particle attribute '" + name + "' (attributes are read from .vtk, .vtu, .bgeo and .ply files)");
         out.push_back(*it);
     }
     return out;

@@ -40,29 +40,77 @@ py::array_t<T> to_numpy(std::vector<T>&& v, std::size_t cols) {
     return py::array_t<T>(shape, data, base);
 }
 
+/// The shape of `a` as Python writes it: (4, 2), (12,).
+std::string shape_of(const py::array& a) {
+    std::string shape;
+    for (py::ssize_t i = 0; i < a.ndim(); ++i) shape += (i ? ", " : "") + std::to_string(a.shape(i));
+    return "(" + shape + (a.ndim() == 1 ? ",)" : ")");
+}
+
 /// Checks an (n, 3) array and returns n.
 template <class T>
 std::size_t rows_of_three(const Array<T>& a, const char* name) {
-    if (a.ndim() != 2 || a.shape(1) != 3) {
-        std::string shape;
-        for (py::ssize_t i = 0; i < a.ndim(); ++i) shape += (i ? ", " : "") + std::to_string(a.shape(i));
-        throw trilevel::Error(std::string(name) + " must be an array of shape (n, 3), got shape (" + shape + ")");
-    }
+    if (a.ndim() != 2 || a.shape(1) != 3)
+        throw trilevel::Error(std::string(name) + " must be an array of shape (n, 3), got shape " + shape_of(a));
     return std::size_t(a.shape(0));
 }
 
-trilevel::Params make_params(float particle_radius, const std::string& mode, float cell, float kernel_radius,
-                             float curvature_threshold, std::uint64_t memory_limit) {
+/// The keyword arguments of reconstruct() besides positions, particle_radius and device.
+struct ReconstructOptions {
+    std::string mode = "adaptive";
+    float cell = 1.0f;
+    float kernel_radius = 4.0f;
+    float curvature_threshold = 0.0f;
+    std::uint64_t memory_limit = 0;
+    float level_hysteresis = 0.0f;
+    std::optional<std::string> normals;  ///< None, "gradient" or "area"
+    std::optional<py::dict> attributes;  ///< name -> (n,) or (n, 3) array per particle
+    bool return_levels = false;
+};
+
+trilevel::Params make_params(float particle_radius, const ReconstructOptions& o) {
     trilevel::Params p;
     p.particle_radius = particle_radius;
-    if (mode == "adaptive") p.mode = trilevel::Mode::Adaptive;
-    else if (mode == "uniform") p.mode = trilevel::Mode::Uniform;
-    else throw trilevel::Error("mode must be 'adaptive' or 'uniform', got '" + mode + "'");
-    p.cell = cell;
-    p.kernel_radius = kernel_radius;
-    p.curvature_threshold = curvature_threshold;
-    p.memory_limit_bytes = memory_limit;
+    if (o.mode == "adaptive") p.mode = trilevel::Mode::Adaptive;
+    else if (o.mode == "uniform") p.mode = trilevel::Mode::Uniform;
+    else throw trilevel::Error("mode must be 'adaptive' or 'uniform', got '" + o.mode + "'");
+    p.cell = o.cell;
+    p.kernel_radius = o.kernel_radius;
+    p.curvature_threshold = o.curvature_threshold;
+    p.memory_limit_bytes = o.memory_limit;
+    p.level_hysteresis = o.level_hysteresis;
+    if (!o.normals) p.normals = trilevel::NormalMode::None;
+    else if (*o.normals == "gradient") p.normals = trilevel::NormalMode::Gradient;
+    else if (*o.normals == "area") p.normals = trilevel::NormalMode::Area;
+    else throw trilevel::Error("normals must be None, 'gradient' or 'area', got '" + *o.normals + "'");
     return p;
+}
+
+/// Converts {name: (n,) or (n, 3) array} to the library's attributes (copied: it takes vectors).
+/// `what` names the elements in messages ("particles", "vertices").
+std::vector<trilevel::Attribute> to_attributes(const py::dict& dict, std::size_t n, const char* what) {
+    std::vector<trilevel::Attribute> out;
+    for (const auto& [key, value] : dict) {
+        trilevel::Attribute a;
+        a.name = py::cast<std::string>(py::str(key));
+        const auto values = py::cast<Array<float>>(value);
+        const bool scalar = values.ndim() == 1 && std::size_t(values.shape(0)) == n;
+        const bool vector = values.ndim() == 2 && std::size_t(values.shape(0)) == n && values.shape(1) == 3;
+        if (!scalar && !vector)
+            throw trilevel::Error("attribute '" + a.name + "' must have shape (" + std::to_string(n) + ",) or (" +
+                                  std::to_string(n) + ", 3), one value per " + what + ", got shape " + shape_of(values));
+        a.components = scalar ? 1 : 3;
+        a.values.assign(values.data(), values.data() + values.size());
+        out.push_back(std::move(a));
+    }
+    return out;
+}
+
+/// The library's attributes as {name: (m,) or (m, 3) float32 array}, in their order, without copies.
+py::dict to_dict(std::vector<trilevel::Attribute>&& attributes) {
+    py::dict out;
+    for (auto& a : attributes) out[py::str(a.name)] = to_numpy(std::move(a.values), a.components == 3 ? 3 : 0);
+    return out;
 }
 
 py::dict device_dict(const trilevel::DeviceInfo& d) {
@@ -83,32 +131,60 @@ py::dict device_dict(const trilevel::DeviceInfo& d) {
 struct PyReconstructor {
     explicit PyReconstructor(int device) : rec(device) {}
 
-    py::tuple reconstruct(const Array<float>& positions, float particle_radius, const std::string& mode, float cell,
-                          float kernel_radius, float curvature_threshold, std::uint64_t memory_limit,
-                          bool return_levels) {
+    /// (vertices, triangles, stats[, vertex_level, triangle_kind][, normals][, attributes]).
+    py::tuple reconstruct(const Array<float>& positions, float particle_radius, const ReconstructOptions& o) {
         const std::size_t n = rows_of_three(positions, "positions");
-        const trilevel::Params params =
-            make_params(particle_radius, mode, cell, kernel_radius, curvature_threshold, memory_limit);
+        const trilevel::Params params = make_params(particle_radius, o);
+        const auto attributes = o.attributes ? to_attributes(*o.attributes, n, "particle")
+                                             : std::vector<trilevel::Attribute>{};
         trilevel::Mesh mesh;
         trilevel::Stats stats;
         {
             py::gil_scoped_release nogil;  // `positions` stays referenced by the caller's frame
             std::lock_guard<std::mutex> lock(mutex);
-            mesh = rec.reconstruct(positions.data(), n, params, &stats);
+            mesh = rec.reconstruct(positions.data(), n, params, &stats, attributes);
         }
-        py::object stats_dict = py::module_::import("json").attr("loads")(trilevel::stats_to_json(stats, params));
-        py::array_t<float> vertices = to_numpy(std::move(mesh.positions), 3);
-        py::array_t<std::uint32_t> triangles = to_numpy(std::move(mesh.triangles), 3);
-        if (!return_levels) return py::make_tuple(vertices, triangles, stats_dict);
-        std::vector<std::uint8_t> kinds(mesh.triangle_kind.size());
-        for (std::size_t i = 0; i < kinds.size(); ++i) kinds[i] = static_cast<std::uint8_t>(mesh.triangle_kind[i]);
-        return py::make_tuple(vertices, triangles, stats_dict, to_numpy(std::move(mesh.vertex_level), 0),
-                              to_numpy(std::move(kinds), 0));
+        py::list out;
+        out.append(to_numpy(std::move(mesh.positions), 3));
+        out.append(to_numpy(std::move(mesh.triangles), 3));
+        out.append(py::module_::import("json").attr("loads")(trilevel::stats_to_json(stats, params)));
+        if (o.return_levels) {
+            std::vector<std::uint8_t> kinds(mesh.triangle_kind.size());
+            for (std::size_t i = 0; i < kinds.size(); ++i) kinds[i] = static_cast<std::uint8_t>(mesh.triangle_kind[i]);
+            out.append(to_numpy(std::move(mesh.vertex_level), 0));
+            out.append(to_numpy(std::move(kinds), 0));
+        }
+        if (o.normals) out.append(to_numpy(std::move(mesh.normals), 3));
+        if (o.attributes) out.append(to_dict(std::move(mesh.attributes)));
+        return py::tuple(out);
+    }
+
+    void reset_history() {
+        py::gil_scoped_release nogil;
+        std::lock_guard<std::mutex> lock(mutex);
+        rec.reset_history();
     }
 
     trilevel::Reconstructor rec;
     std::mutex mutex;
 };
+
+/// Calls `define` with the argument list shared by Reconstructor.reconstruct and reconstruct();
+/// the C++ signatures take them in this order, then ReconstructOptions' fields.
+template <class Define>
+void with_reconstruct_args(Define define) {
+    define(py::arg("positions"), py::arg("particle_radius"), py::kw_only(), py::arg("mode") = "adaptive",
+           py::arg("cell") = 1.0f, py::arg("kernel_radius") = 4.0f, py::arg("curvature_threshold") = 0.0f,
+           py::arg("memory_limit") = 0, py::arg("level_hysteresis") = 0.0f, py::arg("normals") = py::none(),
+           py::arg("attributes") = py::none(), py::arg("return_levels") = false);
+}
+
+ReconstructOptions options(std::string mode, float cell, float kernel_radius, float curvature_threshold,
+                           std::uint64_t memory_limit, float level_hysteresis, std::optional<std::string> normals,
+                           std::optional<py::dict> attributes, bool return_levels) {
+    return {std::move(mode),  cell,  kernel_radius, curvature_threshold, memory_limit, level_hysteresis,
+            std::move(normals), std::move(attributes), return_levels};
+}
 
 constexpr const char* kReconstructDoc = R"(Reconstructs the closed surface mesh of a particle set.
 
@@ -122,12 +198,24 @@ kernel_radius: SPH kernel support R in multiples of r, in [1, 16].
 curvature_threshold: adaptive mode: mean cell curvature from which a coarse cell is meshed with
     cells of r; <= 0 picks the calibrated default (trilevel.default_curvature_threshold()).
 memory_limit: budget in bytes for the largest allocations; 0: the device's and host's limits.
+level_hysteresis: adaptive mode, frame sequences on one Reconstructor: a coarse cell keeps its
+    previous frame's level until its curvature passes the threshold by this fraction of it, in
+    [0, 1); 0 (the default, as the library's) makes every call independent of the previous one.
+    The CLI uses 0.2 (--level-hysteresis). stats["level_flips"] reports the level changes.
+normals: None, "gradient" (unit gradient of the scalar field: the smooth surface's normal) or
+    "area" (area-weighted triangle normals): adds per-vertex normals to the result.
+attributes: {name: array} of per-particle values, (n,) for scalars or (n, 3) for vectors (copied,
+    converted to float32, finite): adds them interpolated at the vertices (Shepard-normalised SPH
+    weights; a constant attribute stays exactly constant).
 return_levels: also return vertex_level ((m,) uint8, 2 or 3) and triangle_kind ((k,) uint8:
     0 level 2, 1 level 3, 2 patch).
 
 Returns (vertices, triangles, stats): vertices (m, 3) float32 in world units, triangles (k, 3)
 uint32 vertex indices, counter-clockwise seen from outside, and stats, a dict with the keys of the
-CLI's --stats JSON. Raises trilevel.Error with a one-line message on bad input or resources.)";
+CLI's --stats JSON. The options add outputs after these, in this order (like numpy.unique's
+return_* flags): vertex_level and triangle_kind (return_levels), normals ((m, 3) float32, unit,
+outward; when normals is given), attributes ({name: (m,) or (m, 3) float32}, in the input's order;
+when attributes is given). Raises trilevel.Error with a one-line message on bad input or resources.)";
 
 }  // namespace
 
@@ -136,36 +224,55 @@ PYBIND11_MODULE(trilevel, m) {
     m.attr("__version__") = TRILEVEL_VERSION;
     py::register_exception<trilevel::Error>(m, "Error", PyExc_RuntimeError);
 
-    py::class_<PyReconstructor>(m, "Reconstructor",
-                                "Keeps an OpenCL device, its compiled kernels and buffers across frames.\n\n"
-                                "device: index from trilevel.devices(); < 0: the TRILEVEL_DEVICE environment "
-                                "variable, else the first GPU, else the first CPU.")
-        .def(py::init<int>(), py::arg("device") = -1, py::call_guard<py::gil_scoped_release>())
-        .def("reconstruct", &PyReconstructor::reconstruct, kReconstructDoc, py::arg("positions"), py::arg("particle_radius"),
-             py::kw_only(), py::arg("mode") = "adaptive", py::arg("cell") = 1.0f,
-             py::arg("kernel_radius") = 4.0f, py::arg("curvature_threshold") = 0.0f, py::arg("memory_limit") = 0,
-             py::arg("return_levels") = false)
+    py::class_<PyReconstructor> cls(m, "Reconstructor",
+                                    "Keeps an OpenCL device, its compiled kernels and buffers across frames.\n\n"
+                                    "device: index from trilevel.devices(); < 0: the TRILEVEL_DEVICE environment "
+                                    "variable, else the first GPU, else the first CPU.\n"
+                                    "Successive reconstruct() calls are taken as successive frames of one "
+                                    "sequence (see level_hysteresis); reset_history() starts a new one.");
+    cls.def(py::init<int>(), py::arg("device") = -1, py::call_guard<py::gil_scoped_release>())
+        .def("reset_history", &PyReconstructor::reset_history,
+             "Forgets the previous frame's levels: call before the first frame of a new sequence (or between "
+             "unrelated inputs) so that it is reconstructed as if alone. A change of particle_radius, "
+             "kernel_radius, mode or cell resets the history too.")
         .def_property_readonly("device", [](const PyReconstructor& r) { return device_dict(r.rec.device()); },
                                "The OpenCL device in use, as a dict like the entries of trilevel.devices().");
+    with_reconstruct_args([&](auto... args) {
+        cls.def(
+            "reconstruct",
+            [](PyReconstructor& rec, const Array<float>& positions, float particle_radius, std::string mode, float cell,
+               float kernel_radius, float curvature_threshold, std::uint64_t memory_limit, float level_hysteresis,
+               std::optional<std::string> normals, std::optional<py::dict> attributes, bool return_levels) {
+                return rec.reconstruct(positions, particle_radius,
+                                       options(std::move(mode), cell, kernel_radius, curvature_threshold, memory_limit,
+                                               level_hysteresis, std::move(normals), std::move(attributes),
+                                               return_levels));
+            },
+            kReconstructDoc, args...);
+    });
 
-    m.def(
-        "reconstruct",
-        [](const Array<float>& positions, float particle_radius, const std::string& mode, float cell,
-           float kernel_radius, float curvature_threshold, std::uint64_t memory_limit, int device, bool return_levels) {
-            std::unique_ptr<PyReconstructor> rec;
-            {
-                py::gil_scoped_release nogil;
-                rec = std::make_unique<PyReconstructor>(device);
-            }
-            return rec->reconstruct(positions, particle_radius, mode, cell, kernel_radius, curvature_threshold,
-                                    memory_limit, return_levels);
-        },
-        (std::string(kReconstructDoc) + "\n\ndevice: as for Reconstructor. For frame sequences, reuse a "
-                                        "trilevel.Reconstructor instead: it compiles the kernels once.")
-            .c_str(),
-        py::arg("positions"), py::arg("particle_radius"), py::kw_only(), py::arg("mode") = "adaptive",
-        py::arg("cell") = 1.0f, py::arg("kernel_radius") = 4.0f, py::arg("curvature_threshold") = 0.0f,
-        py::arg("memory_limit") = 0, py::arg("device") = -1, py::arg("return_levels") = false);
+    static const std::string one_shot_doc =
+        std::string(kReconstructDoc) +
+        "\n\ndevice: as for Reconstructor. For frame sequences, reuse a trilevel.Reconstructor instead: it "
+        "compiles the kernels once (and remembers the levels for level_hysteresis).";
+    with_reconstruct_args([&](auto... args) {
+        m.def(
+            "reconstruct",
+            [](const Array<float>& positions, float particle_radius, std::string mode, float cell, float kernel_radius,
+               float curvature_threshold, std::uint64_t memory_limit, float level_hysteresis,
+               std::optional<std::string> normals, std::optional<py::dict> attributes, bool return_levels, int device) {
+                std::unique_ptr<PyReconstructor> rec;
+                {
+                    py::gil_scoped_release nogil;
+                    rec = std::make_unique<PyReconstructor>(device);
+                }
+                return rec->reconstruct(positions, particle_radius,
+                                        options(std::move(mode), cell, kernel_radius, curvature_threshold,
+                                                memory_limit, level_hysteresis, std::move(normals),
+                                                std::move(attributes), return_levels));
+            },
+            one_shot_doc.c_str(), args..., py::arg("device") = -1);
+    });
 
     m.def("devices", [] {
         py::list out;
@@ -177,14 +284,33 @@ PYBIND11_MODULE(trilevel, m) {
     m.def("default_curvature_threshold", &trilevel::default_curvature_threshold,
           "The calibrated curvature threshold used when curvature_threshold <= 0.");
 
-    m.def("read_particles", [](const std::string& path) {
+    m.def("read_particles", [](const std::string& path, std::optional<std::vector<std::string>> attributes,
+                               bool drop_invalid) -> py::object {
+        trilevel::ReadOptions options;
+        if (attributes) options.attributes = *attributes;
+        options.drop_invalid = drop_invalid;
         trilevel::ParticleSet set;
         {
             py::gil_scoped_release nogil;
-            set = trilevel::read_particles(path);
+            set = trilevel::read_particles(path, options);
         }
-        return to_numpy(std::move(set.positions), 3);
-    }, py::arg("path"), "Reads particle positions (.vtk, .vtu, .bgeo, .ply, .xyz) as an (n, 3) float32 array.");
+        if (set.dropped_invalid > 0) {
+            const std::string warning = path + ": dropped " + std::to_string(set.dropped_invalid) +
+                                        " particles with NaN/Inf coordinates";
+            if (PyErr_WarnEx(PyExc_RuntimeWarning, warning.c_str(), 1) != 0) throw py::error_already_set();
+        }
+        py::array_t<float> positions = to_numpy(std::move(set.positions), 3);
+        if (!attributes) return positions;
+        return py::make_tuple(positions, to_dict(std::move(set.attributes)));
+    }, py::arg("path"), py::arg("attributes") = py::none(), py::kw_only(), py::arg("drop_invalid") = false,
+       R"(Reads particles (.vtk, .vtu, .bgeo, .ply, .xyz); returns their positions as an (n, 3) float32 array.
+
+attributes: names of per-particle attributes to read as well (VTK point data, VTU PointData, BGEO
+    point attributes, PLY vertex properties); then returns (positions, {name: (n,) or (n, 3)
+    float32}), in the order asked, ready for reconstruct(..., attributes=...). A name the file
+    lacks raises trilevel.Error listing the names it has.
+drop_invalid: drop particles with a NaN/Inf coordinate (and their attributes) with a
+    RuntimeWarning giving their number, instead of raising trilevel.Error.)");
 
     m.def("write_particles", [](const std::string& path, const Array<float>& positions) {
         trilevel::ParticleSet set;
@@ -193,33 +319,54 @@ PYBIND11_MODULE(trilevel, m) {
         trilevel::write_particles(path, set);
     }, py::arg("path"), py::arg("positions"), "Writes particles by extension: .xyz, .ply, .vtk (atomically).");
 
-    m.def("read_mesh", [](const std::string& path) {
+    m.def("read_mesh", [](const std::string& path, bool return_normals, bool return_attributes) {
         trilevel::Mesh mesh;
         {
             py::gil_scoped_release nogil;
             mesh = trilevel::read_mesh(path);
         }
-        return py::make_tuple(to_numpy(std::move(mesh.positions), 3), to_numpy(std::move(mesh.triangles), 3));
-    }, py::arg("path"), "Reads a mesh (.ply, .obj, .vtk) as (vertices (m, 3) float32, triangles (k, 3) uint32).");
+        py::list out;
+        out.append(to_numpy(std::move(mesh.positions), 3));
+        out.append(to_numpy(std::move(mesh.triangles), 3));
+        if (return_normals) out.append(mesh.normals.empty() ? py::object(py::none()) : to_numpy(std::move(mesh.normals), 3));
+        if (return_attributes) out.append(to_dict(std::move(mesh.attributes)));
+        return py::tuple(out);
+    }, py::arg("path"), py::kw_only(), py::arg("return_normals") = false, py::arg("return_attributes") = false,
+       R"(Reads a mesh (.ply, .obj, .vtk) as (vertices (m, 3) float32, triangles (k, 3) uint32).
+
+return_normals: also return the per-vertex normals ((m, 3) float32; None when the file has none).
+return_attributes: also return the vertex attributes ({name: (m,) or (m, 3) float32}; PLY: every
+    vertex property but x y z, nx ny nz, level and colours, `a_x a_y a_z` as one vector `a`).)");
 
     m.def("write_mesh", [](const std::string& path, const Array<float>& vertices, const Array<std::uint32_t>& triangles,
-                           const std::optional<Array<std::uint8_t>>& vertex_level, bool color_levels) {
+                           const std::optional<Array<std::uint8_t>>& vertex_level, bool color_levels,
+                           const std::optional<Array<float>>& normals, const std::optional<py::dict>& attributes) {
         trilevel::Mesh mesh;
         mesh.positions.assign(vertices.data(), vertices.data() + 3 * rows_of_three(vertices, "vertices"));
         mesh.triangles.assign(triangles.data(), triangles.data() + 3 * rows_of_three(triangles, "triangles"));
         if (vertex_level) mesh.vertex_level.assign(vertex_level->data(), vertex_level->data() + vertex_level->size());
+        if (normals) mesh.normals.assign(normals->data(), normals->data() + 3 * rows_of_three(*normals, "normals"));
+        if (attributes) mesh.attributes = to_attributes(*attributes, mesh.vertex_count(), "vertex");
         trilevel::MeshWriteOptions options;
         options.color_levels = color_levels;
         py::gil_scoped_release nogil;
         trilevel::write_mesh(path, mesh, options);
     }, py::arg("path"), py::arg("vertices"), py::arg("triangles"), py::kw_only(), py::arg("vertex_level") = py::none(),
-       py::arg("color_levels") = false,
-       "Writes a mesh by extension: .ply (binary; a `level` vertex property when vertex_level is given), .obj, .vtk.\n"
-       "Written to a temporary file and renamed, so a failure never leaves a partial file.");
+       py::arg("color_levels") = false, py::arg("normals") = py::none(), py::arg("attributes") = py::none(),
+       R"(Writes a mesh by extension: .ply (binary), .obj, .vtk.
 
-    m.def("generate_scene", [](const std::string& name, float radius, std::uint64_t seed) {
-        return to_numpy(std::move(trilevel::generate_scene(name, radius, seed).positions), 3);
-    }, py::arg("name"), py::arg("radius"), py::arg("seed") = 1,
+vertex_level: (m,) 2 or 3 per vertex: a PLY `level` vertex property (color_levels: and colours).
+normals: (m, 3) per-vertex normals: PLY nx ny nz, VTK NORMALS, OBJ vn.
+attributes: {name: (m,) or (m, 3) array} per vertex: PLY properties `name` or `name_x name_y
+    name_z`, VTK SCALARS or VECTORS; OBJ leaves them out.
+Written to a temporary file and renamed, so a failure never leaves a partial file.)");
+
+    m.def("scene_names", &trilevel::scene_names, "The names generate_scene accepts.");
+
+    m.def("generate_scene", [](const std::string& name, float radius, std::uint64_t seed, int frame) {
+        return to_numpy(std::move(trilevel::generate_scene(name, radius, seed, frame).positions), 3);
+    }, py::arg("name"), py::arg("radius"), py::arg("seed") = 1, py::arg("frame") = 0,
        "A deterministic test scene on a jittered lattice of spacing 2*radius (world units): "
-       "'block', 'sphere', 'dam-break' or 'pool-and-drop'.");
+       "'block', 'sphere', 'dam-break', 'pool-and-drop' or 'falling-drop', which moves with `frame` "
+       "(>= 0; same particle count and order in every frame) for frame sequences.");
 }

@@ -29,7 +29,7 @@ DeviceHash make_hash(OpenCLRuntime& rt, std::size_t capacity, const char* what,
     DeviceHash h;
     h.capacity = next_pow2(capacity);
     h.keys = rt.buffer(h.capacity * sizeof(cl_ulong), what, flags);
-    h.stats = rt.buffer(2 * sizeof(cl_int), what);
+    h.stats = rt.buffer(2 * sizeof(cl_int), (std::string(what) + " counters").c_str());
     rt.queue().enqueueFillBuffer(h.keys, ~cl_ulong{0}, 0, h.capacity * sizeof(cl_ulong));
     rt.queue().enqueueFillBuffer(h.stats, cl_int{0}, 0, 2 * sizeof(cl_int));
     return h;
@@ -90,16 +90,17 @@ BinnedParticles bin_particles(OpenCLRuntime& rt, const std::vector<glm::vec4>& p
     b.cell = cell;
     const cl_uint n = cl_uint(b.count);
     const float inv_cell = 1.0f / cell;
-    cl::Buffer pos = rt.buffer(n * sizeof(cl_float4), "particle positions");
-    rt.queue().enqueueWriteBuffer(pos, CL_FALSE, 0, n * sizeof(cl_float4), positions.data());
-    cl::Buffer slot_of = rt.buffer(n * sizeof(cl_int), "particle bins");
+    DeviceBuffer pos = rt.buffer(n * sizeof(cl_float4), "particle positions");
+    // Host writes block: an error thrown while one is queued (a budget check) would free its source.
+    rt.queue().enqueueWriteBuffer(pos, CL_TRUE, 0, n * sizeof(cl_float4), positions.data());
+    DeviceBuffer slot_of = rt.buffer(n * sizeof(cl_int), "particle bins");
 
     b.bins = insert_growing(rt, b.count / 4, "particle bin hash", [&](DeviceHash& h) {
         set_args(rt.kernel("bin_insert"), pos, n, inv_cell, h.keys, cl_ulong(h.mask()), slot_of, h.stats);
         rt.run("bin_insert", n);
     });
     const std::size_t cap = b.bins.capacity;
-    cl::Buffer count = rt.buffer(cap * sizeof(cl_uint), "bin counts");
+    DeviceBuffer count = rt.buffer(cap * sizeof(cl_uint), "bin counts");
     rt.queue().enqueueFillBuffer(count, cl_uint{0}, 0, cap * sizeof(cl_uint));
     set_args(rt.kernel("bin_count"), slot_of, n, count);
     rt.run("bin_count", n);
@@ -116,7 +117,7 @@ BinnedParticles bin_particles(OpenCLRuntime& rt, const std::vector<glm::vec4>& p
     b.occupied = rt.buffer(occupied.size() * sizeof(cl_uint), "occupied bins");
     rt.queue().enqueueWriteBuffer(b.occupied, CL_TRUE, 0, occupied.size() * sizeof(cl_uint), occupied.data());
     b.range = rt.buffer(cap * sizeof(cl_uint2), "bin ranges");
-    rt.queue().enqueueWriteBuffer(b.range, CL_FALSE, 0, cap * sizeof(cl_uint2), range.data());
+    rt.queue().enqueueWriteBuffer(b.range, CL_TRUE, 0, cap * sizeof(cl_uint2), range.data());
     rt.queue().enqueueFillBuffer(count, cl_uint{0}, 0, cap * sizeof(cl_uint));
     b.order = rt.buffer(n * sizeof(cl_uint), "particle order");
     set_args(rt.kernel("bin_scatter"), slot_of, n, b.range, count, b.order);
@@ -152,11 +153,11 @@ namespace {
 /// Stage 4 on the device: per-particle curvature, per-cell mean, levels (paper eq. 1-3).
 void cell_curvature_levels(OpenCLRuntime& rt, const BinnedParticles& b, const ParticleClasses& c,
                            const DeviceHash& cells, const cl::Buffer& cell_flags, float R, float inv_coarse,
-                           float threshold, cl::Buffer& level, cl::Buffer& cell_kappa, cl::Buffer& kappa) {
+                           float threshold, DeviceBuffer& level, DeviceBuffer& cell_kappa, DeviceBuffer& kappa) {
     const cl_uint n = cl_uint(b.count);
     const std::size_t cap = cells.capacity;
     kappa = rt.buffer(n * sizeof(cl_float), "particle curvature");
-    cl::Buffer normals = rt.buffer(n * sizeof(cl_float4), "particle normals");
+    DeviceBuffer normals = rt.buffer(n * sizeof(cl_float4), "particle normals");
     set_args(rt.kernel("particle_normals"), c.gradient, c.flags, n, normals);
     rt.run("particle_normals", n);
     set_args(rt.kernel("particle_curvature"), b.sorted, c.flags, b.occupied, cl_uint(b.occupied_count),
@@ -165,16 +166,16 @@ void cell_curvature_levels(OpenCLRuntime& rt, const BinnedParticles& b, const Pa
     set_candidate_args(rt, rt.kernel("particle_curvature"), 13);
     rt.kernel("particle_curvature").setArg(17, cl::Local(rt.max_candidates() * sizeof(cl_float4)));  // normals
     rt.run_groups("particle_curvature", (b.occupied_count + kBinsPerGroup - 1) / kBinsPerGroup, kBinGroup);
-    cl::Buffer sum = rt.buffer(cap * sizeof(cl_ulong), "cell curvature sums");
-    cl::Buffer cnt = rt.buffer(cap * sizeof(cl_uint), "cell curvature counts");
-    cl::Buffer mx = rt.buffer(cap * sizeof(cl_uint), "cell curvature maxima");
+    DeviceBuffer sum = rt.buffer(cap * sizeof(cl_ulong), "cell curvature sums");
+    DeviceBuffer cnt = rt.buffer(cap * sizeof(cl_uint), "cell curvature counts");
+    DeviceBuffer mx = rt.buffer(cap * sizeof(cl_uint), "cell curvature maxima");
     rt.queue().enqueueFillBuffer(sum, cl_ulong{0}, 0, cap * sizeof(cl_ulong));
     rt.queue().enqueueFillBuffer(cnt, cl_uint{0}, 0, cap * sizeof(cl_uint));
     rt.queue().enqueueFillBuffer(mx, cl_uint{0}, 0, cap * sizeof(cl_uint));
     set_args(rt.kernel("accumulate_cell_curvature"), b.sorted, c.flags, n, inv_coarse, kappa, cells.keys,
              cl_ulong(cells.mask()), sum, cnt, mx);
     rt.run("accumulate_cell_curvature", n);
-    cl::Buffer raw = rt.buffer(cap * sizeof(cl_float), "coarse cell curvature");
+    DeviceBuffer raw = rt.buffer(cap * sizeof(cl_float), "unsmoothed cell curvature");
     set_args(rt.kernel("cell_curvature"), cells.keys, cl_ulong(cells.mask()), sum, cnt, mx, raw);
     rt.run("cell_curvature", cap);
     set_args(rt.kernel("cell_levels"), cells.keys, cl_ulong(cells.mask()), raw, cell_flags, threshold, level, cell_kappa);
@@ -194,13 +195,13 @@ SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& b, const Pa
         rt.run("mark_surface_cells", n);
     });
     const std::size_t cap = cells.capacity;
-    cl::Buffer flags = rt.buffer(cap * sizeof(cl_uint), "coarse cell flags");
+    DeviceBuffer flags = rt.buffer(cap * sizeof(cl_uint), "coarse cell flags");
     rt.queue().enqueueFillBuffer(flags, cl_uint{0}, 0, cap * sizeof(cl_uint));
     set_args(rt.kernel("mark_splash_cells"), b.sorted, c.flags, n, inv_coarse, constants::kSplashBoxHalf * r, cells.keys, cl_ulong(cells.mask()),
              flags);
     rt.run("mark_splash_cells", n);
 
-    cl::Buffer level = rt.buffer(cap, "coarse cell levels"), cell_kappa, kappa;
+    DeviceBuffer level = rt.buffer(cap, "coarse cell levels"), cell_kappa, kappa;
     SurfaceCells out;
     if (forced_level == 0) {
         cell_kappa = rt.buffer(cap * sizeof(cl_float), "coarse cell curvature");
@@ -243,24 +244,24 @@ void grow_fine_points(OpenCLRuntime& rt, FinePoints& p, std::size_t capacity) {
     // Host-accessible, so that mapping the table for the host stages costs no copy on CPU devices.
     constexpr cl_mem_flags kShared = CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR;
     DeviceHash h = make_hash(rt, capacity, "fine point hash", kShared);
-    cl::Buffer values = rt.buffer(h.capacity * sizeof(cl_float), "fine point values", kShared);
+    DeviceBuffer values = rt.buffer(h.capacity * sizeof(cl_float), "fine point values", kShared);
     rt.queue().enqueueFillBuffer(values, std::numeric_limits<float>::quiet_NaN(), 0, h.capacity * sizeof(cl_float));
     if (p.hash.capacity) {
         set_args(rt.kernel("hash_rehash"), p.hash.keys, p.values, cl_ulong(p.hash.capacity), h.keys, values,
                  cl_ulong(h.mask()), h.stats);
         rt.run("hash_rehash", p.hash.capacity);
     }
-    p.hash = h;
-    p.values = values;
+    p.hash = std::move(h);  // the old table goes back to the pool (queued commands keep their order)
+    p.values = std::move(values);
 }
 
 }  // namespace
 
 /// Cells as int4 (x, y, z, level) on the device.
-cl::Buffer cell_buffer(OpenCLRuntime& rt, const std::vector<CoarseCell>& cells) {
+DeviceBuffer cell_buffer(OpenCLRuntime& rt, const std::vector<CoarseCell>& cells) {
     std::vector<cl_int4> data;
     for (const auto& c : cells) data.push_back({{c.coord.x, c.coord.y, c.coord.z, c.level}});
-    cl::Buffer buf = rt.buffer(data.size() * sizeof(cl_int4), "cell list");
+    DeviceBuffer buf = rt.buffer(data.size() * sizeof(cl_int4), "cell list");
     rt.queue().enqueueWriteBuffer(buf, CL_TRUE, 0, data.size() * sizeof(cl_int4), data.data());
     return buf;
 }
@@ -270,7 +271,7 @@ cl::Buffer cell_buffer(OpenCLRuntime& rt, const std::vector<CoarseCell>& cells) 
 /// kernel. `every_point`: claim every lattice point of the cell, not only those of its level.
 void evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf, std::size_t cell_count,
                     bool every_point, const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
-    cl::Buffer overflow = rt.buffer(sizeof(cl_int), "scalar field overflow flag");
+    DeviceBuffer overflow = rt.buffer(sizeof(cl_int), "scalar field overflow flag");
     rt.queue().enqueueFillBuffer(overflow, cl_int{0}, 0, sizeof(cl_int));
     constexpr std::size_t kMaxCellPoints = 729;  // as in scalar_field.cl
     auto& k = rt.kernel("scalar_field_cells");
@@ -287,7 +288,7 @@ void evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf
 void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<CoarseCell>& cells,
                          const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
     if (cells.empty()) return;
-    const cl::Buffer cell_buf = cell_buffer(rt, cells);
+    const DeviceBuffer cell_buf = cell_buffer(rt, cells);
     const std::size_t side = std::size_t(frame.coarse_steps + 1);
     const std::size_t work = cells.size() * side * side * side;
     if (work > std::numeric_limits<cl_uint>::max()) throw Error("too many fine points in one refinement pass");
@@ -310,8 +311,8 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<Coa
 void evaluate_pending(OpenCLRuntime& rt, FinePoints& p, const LatticeFrame& frame, const BinnedParticles& b, float r,
                       float R) {
     // Stage 6 over the points not evaluated yet: each unique point exactly once.
-    cl::Buffer count = rt.buffer(sizeof(cl_uint), "pending count");
-    cl::Buffer pending = rt.buffer(p.inserted * sizeof(cl_uint), "pending points");
+    DeviceBuffer count = rt.buffer(sizeof(cl_uint), "pending count");
+    DeviceBuffer pending = rt.buffer(p.inserted * sizeof(cl_uint), "pending points");
     rt.queue().enqueueFillBuffer(count, cl_uint{0}, 0, sizeof(cl_uint));
     set_args(rt.kernel("collect_pending"), p.hash.keys, p.values, cl_ulong(p.hash.capacity), count, pending);
     rt.run("collect_pending", p.hash.capacity);
@@ -327,9 +328,9 @@ void insert_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<std
                          float r, float R) {
     if (keys.empty()) return;
     const cl_uint n = cl_uint(keys.size());
-    cl::Buffer in = rt.buffer(n * sizeof(cl_ulong), "extra fine points");
-    cl::Buffer slots = rt.buffer(n * sizeof(cl_long), "extra fine point slots");
-    rt.queue().enqueueWriteBuffer(in, CL_FALSE, 0, n * sizeof(cl_ulong), keys.data());
+    DeviceBuffer in = rt.buffer(n * sizeof(cl_ulong), "extra fine points");
+    DeviceBuffer slots = rt.buffer(n * sizeof(cl_long), "extra fine point slots");
+    rt.queue().enqueueWriteBuffer(in, CL_TRUE, 0, n * sizeof(cl_ulong), keys.data());
     if (p.hash.capacity < (p.inserted + n) * 2) grow_fine_points(rt, p, (p.inserted + n) * 2);
     for (;;) {
         set_args(rt.kernel("hash_insert_keys"), in, n, p.hash.keys, cl_ulong(p.hash.mask()), slots, p.hash.stats);

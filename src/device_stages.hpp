@@ -1,5 +1,6 @@
 // The OpenCL stages of the pipeline (DESIGN §2, stages 1-6), each a function from buffers to
-// buffers. Particle positions are relative to the lattice origin. The tests compare each stage
+// buffers. Particle positions are relative to the lattice origin. Buffers come from the runtime's
+// pool (buffer_pool.hpp) and go back to it when these structs are destroyed. The tests compare each stage
 // with its plain C++ reference in src/reference/.
 #pragma once
 
@@ -16,8 +17,8 @@ namespace trilevel {
 
 /// A lock-free hash on the device: keys, an optional parallel value array, and its counters.
 struct DeviceHash {
-    cl::Buffer keys;
-    cl::Buffer stats;  ///< int[2]: overflow flag, keys inserted
+    DeviceBuffer keys;
+    DeviceBuffer stats;  ///< int[2]: overflow flag, keys inserted
     std::size_t capacity = 0;
     std::uint64_t mask() const { return capacity - 1; }
 };
@@ -26,11 +27,11 @@ struct DeviceHash {
 struct BinnedParticles {
     std::size_t count = 0;
     float cell = 0.0f;      ///< bin edge (the kernel radius R)
-    cl::Buffer sorted;      ///< float4 positions in bin order
-    cl::Buffer order;       ///< uint: sorted index -> input index
+    DeviceBuffer sorted;      ///< float4 positions in bin order
+    DeviceBuffer order;       ///< uint: sorted index -> input index
     DeviceHash bins;        ///< occupied bins
-    cl::Buffer range;       ///< uint2 per bin slot: first sorted index, count
-    cl::Buffer occupied;    ///< uint: the slots of the non-empty bins
+    DeviceBuffer range;       ///< uint2 per bin slot: first sorted index, count
+    DeviceBuffer occupied;    ///< uint: the slots of the non-empty bins
     std::size_t occupied_count = 0;
     std::uint64_t pair_load = 0;  ///< sum over bins of count^2: the neighbour work, before it is done
 };
@@ -39,8 +40,8 @@ BinnedParticles bin_particles(OpenCLRuntime& rt, const std::vector<glm::vec4>& p
 /// Stage 2: colour-field gradient (xyz) and neighbour count (w) per sorted particle; flags bit 0
 /// surface, bit 1 splash.
 struct ParticleClasses {
-    cl::Buffer gradient;  ///< float4
-    cl::Buffer flags;     ///< uchar
+    DeviceBuffer gradient;  ///< float4
+    DeviceBuffer flags;     ///< uchar
     std::size_t surface = 0, splash = 0;
 };
 ParticleClasses classify_particles(OpenCLRuntime& rt, const BinnedParticles& bins, float r, float R);
@@ -59,7 +60,7 @@ SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& bins, const
 /// Stages 5-6: the fine lattice points and their scalar values.
 struct FinePoints {
     DeviceHash hash;
-    cl::Buffer values;  ///< float per slot; NaN until evaluated
+    DeviceBuffer values;  ///< float per slot; NaN until evaluated
     std::size_t inserted = 0;
     std::uint64_t* mapped_keys = nullptr;  ///< while mapped for the host (map_fine_points)
     float* mapped_values = nullptr;

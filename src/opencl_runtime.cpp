@@ -89,7 +89,7 @@ int choose_device(int requested, const std::vector<cl::Device>& devices) {
     return 0;
 }
 
-std::atomic<std::int64_t> g_live_buffers{0}, g_live_bytes{0};
+std::atomic<std::int64_t> g_live_buffers{0}, g_live_bytes{0}, g_allocations{0};
 
 void CL_CALLBACK buffer_released(cl_mem, void* bytes) {
     g_live_buffers.fetch_sub(1, std::memory_order_relaxed);
@@ -188,6 +188,7 @@ void OpenCLRuntime::recover() noexcept {
     }
     events_.clear();
     kernel_ms_.clear();
+    pool_.clear();  // buffers of a failed frame may hold anything, and the failure may be memory
     stage_.clear();
     fault_stage_.clear();
 }
@@ -205,6 +206,7 @@ std::uint64_t available_ram() {
 }
 
 std::int64_t live_device_buffers() { return g_live_buffers.load(std::memory_order_relaxed); }
+std::int64_t device_buffer_allocations() { return g_allocations.load(std::memory_order_relaxed); }
 
 void OpenCLRuntime::run(const std::string& name, std::size_t global) {
     maybe_fail("clEnqueueNDRangeKernel");
@@ -244,46 +246,81 @@ std::map<std::string, double> OpenCLRuntime::take_kernel_times() {
     return std::exchange(kernel_ms_, {});
 }
 
-cl::Buffer OpenCLRuntime::buffer(std::size_t bytes, const char* what, cl_mem_flags flags) {
+DeviceBuffer OpenCLRuntime::buffer(std::size_t bytes, const char* what, cl_mem_flags flags) {
     bytes = std::max<std::size_t>(bytes, 16);
     if (bytes > info_.max_allocation)
         throw Error(std::string("the ") + what + " needs " + mib(bytes) + " in one buffer, more than '" + info_.name +
                     "' allows (" + mib(info_.max_allocation) +
                     "; PoCL: raise POCL_MEMORY_LIMIT); use a larger cell or a smaller domain");
-    if (budget_ && allocated_ + bytes > budget_)
-        throw Error(std::string("the ") + what + " would bring device memory to " + mib(allocated_ + bytes) +
+    // The budget bounds what the run holds at once (deterministic, whatever the pool kept from
+    // earlier frames), so a frame fits a --memory-limit of its own Stats::device_memory_bytes.
+    const std::uint64_t lent = pool_.lent_bytes() + bytes;
+    if (budget_ && lent > budget_)
+        throw Error(std::string("the ") + what + " would bring device memory to " + mib(lent) +
                     ", over the budget of " + mib(budget_) +
                     " (--memory-limit or the device's memory); use a larger cell or a smaller domain");
+    maybe_fail("clCreateBuffer");
+    peak_lent_ = std::max(peak_lent_, lent);
+    BufferPool::Entry& e = pool_.find(what, flags, bytes);
+    if (e.capacity < bytes) {
+        std::size_t capacity = e.capacity ? std::max(bytes, std::size_t(double(e.capacity) * BufferPool::kGrowth)) : bytes;
+        capacity = std::min<std::size_t>(capacity, info_.max_allocation);
+        make_room(e, capacity, bytes);
+        pool_.drop(e);  // before allocating its successor: the old buffer's memory is free first
+        pool_.install(e, allocate(e, capacity, what), capacity);
+    }
+    return pool_.lend(e, bytes);
+}
+
+/// Keeps what the pool holds within the budget (and, on CPU devices, the RAM available) when `e`
+/// grows to `capacity`: releases free buffers not used this frame, then any free buffer, then
+/// gives up the growth slack. Past that only the RAM check fails (the budget check on what is
+/// lent has passed; the excess is the slack of buffers on loan).
+void OpenCLRuntime::make_room(BufferPool::Entry& e, std::size_t& capacity, std::size_t bytes) {
+    auto over = [&] {
+        const std::uint64_t held = pool_.held_bytes() - e.capacity + capacity;
+        return (budget_ && held > budget_) || (ram_room_ && held > held_at_reset_ + ram_room_);
+    };
+    if (over()) pool_.release_free(true, &e);
+    if (over()) pool_.release_free(false, &e);
+    if (over()) capacity = bytes;
+    const std::uint64_t held = pool_.held_bytes() - e.capacity + capacity;
     // A CPU device's buffers are host memory: past the RAM that was available, the kernel's OOM
     // killer would end the process instead of this error.
-    const std::int64_t live = g_live_bytes.load(std::memory_order_relaxed);
-    if (ram_room_ && std::uint64_t(std::max<std::int64_t>(0, live - live_at_reset_)) + bytes > ram_room_)
-        throw Error(std::string("the ") + what + " (" + mib(bytes) + ") would bring the device buffers of this CPU device to " +
-                    mib(std::uint64_t(std::max<std::int64_t>(0, live - live_at_reset_)) + bytes) + ", over the " +
-                    mib(ram_room_) + " of RAM available; use a larger cell or a smaller domain");
-    maybe_fail("clCreateBuffer");
-    allocated_ += bytes;
-    try {
-        cl::Buffer b(context_, flags, bytes);
-        g_live_buffers.fetch_add(1, std::memory_order_relaxed);
-        g_live_bytes.fetch_add(std::int64_t(bytes), std::memory_order_relaxed);
-        if (clSetMemObjectDestructorCallback(b(), buffer_released, reinterpret_cast<void*>(std::uintptr_t(bytes))) !=
-            CL_SUCCESS) {  // not counted, rather than a false leak
-            g_live_buffers.fetch_sub(1, std::memory_order_relaxed);
-            g_live_bytes.fetch_sub(std::int64_t(bytes), std::memory_order_relaxed);
+    if (ram_room_ && held > held_at_reset_ + ram_room_)
+        throw Error(std::string("the ") + e.role + " (" + mib(bytes) + ") would bring the device buffers of this CPU device to " +
+                    mib(held) + ", over the " + mib(held_at_reset_ + ram_room_) +
+                    " of RAM available; use a larger cell or a smaller domain");
+}
+
+cl::Buffer OpenCLRuntime::allocate(BufferPool::Entry& e, std::size_t bytes, const char* what) {
+    for (int attempt = 0;; ++attempt) {
+        try {
+            cl::Buffer b(context_, e.flags, bytes);
+            g_allocations.fetch_add(1, std::memory_order_relaxed);
+            g_live_buffers.fetch_add(1, std::memory_order_relaxed);
+            g_live_bytes.fetch_add(std::int64_t(bytes), std::memory_order_relaxed);
+            if (clSetMemObjectDestructorCallback(b(), buffer_released, reinterpret_cast<void*>(std::uintptr_t(bytes))) !=
+                CL_SUCCESS) {  // not counted, rather than a false leak
+                g_live_buffers.fetch_sub(1, std::memory_order_relaxed);
+                g_live_bytes.fetch_sub(std::int64_t(bytes), std::memory_order_relaxed);
+            }
+            return b;
+        } catch (const cl::Error& e2) {
+            // The device's own limit may lie below the budget: free buffers of the pool first.
+            if (attempt == 0 && pool_.release_free(false, &e) > 0) continue;
+            throw Error(std::string("cannot allocate the ") + what + " (" + mib(bytes) +
+                        ") on the OpenCL device: " + cl_error_name(e2.err()));
         }
-        return b;
-    } catch (const cl::Error& e) {
-        throw Error(std::string("cannot allocate the ") + what + " (" + mib(bytes) +
-                    ") on the OpenCL device: " + cl_error_name(e.err()));
     }
 }
 
 void OpenCLRuntime::reset_budget(std::uint64_t limit) {
     budget_ = limit ? std::min<std::uint64_t>(limit, info_.global_memory) : info_.global_memory;
+    if (pool_.held_bytes() > budget_) pool_.release_free(false);  // a lower limit than before
     ram_room_ = info_.type == "CPU" ? available_ram() : 0;
-    live_at_reset_ = g_live_bytes.load(std::memory_order_relaxed);
-    allocated_ = 0;
+    held_at_reset_ = pool_.held_bytes();
+    peak_lent_ = 0;
 }
 
 std::string cl_error_advice(cl_int code) {

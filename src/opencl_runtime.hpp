@@ -9,6 +9,7 @@
 
 #include <CL/opencl.hpp>
 
+#include "buffer_pool.hpp"
 #include "trilevel/trilevel.hpp"
 
 namespace trilevel {
@@ -40,14 +41,25 @@ public:
     void finish();
     std::map<std::string, double> take_kernel_times();
 
-    /// A device buffer of `bytes`, checked against the device's limits and the memory budget first.
-    cl::Buffer buffer(std::size_t bytes, const char* what, cl_mem_flags flags = CL_MEM_READ_WRITE);
+    /// A device buffer of at least `bytes` for the role `what` (also the name in errors), lent
+    /// from the buffer pool: reused when a free buffer of the role is large enough, else allocated
+    /// (x1.5 growth when a role outgrows its buffer). Checked first against the device's largest
+    /// allocation and the budget: the bytes lent at once, this request included, must fit it.
+    /// Its content is undefined: fill or write the range the kernels read.
+    DeviceBuffer buffer(std::size_t bytes, const char* what, cl_mem_flags flags = CL_MEM_READ_WRITE);
 
     /// Starts a reconstruction's accounting: `limit` bytes (0: the device's global memory). On CPU
-    /// devices the buffers held at once must also fit the RAM available now (MemAvailable).
+    /// devices, what the pool allocates beyond what it holds now must also fit the RAM available
+    /// now (MemAvailable). Pooled buffers over the budget are released.
     void reset_budget(std::uint64_t limit);
-    /// Bytes of device buffers allocated since reset_budget (an upper bound of what is held).
-    std::uint64_t allocated_bytes() const { return allocated_; }
+    /// Largest number of bytes lent at once since reset_budget: the device memory the run needed
+    /// (the pool may hold more: growth slack, buffers of other roles or frames).
+    std::uint64_t peak_lent_bytes() const { return peak_lent_; }
+    /// End of a frame: trims pooled buffers that stayed oversized or unused (BufferPool::kTrimFrames).
+    void end_frame() { pool_.end_frame(); }
+    /// Releases every pooled buffer (buffers still lent go when their DeviceBuffer does).
+    void release_buffers() { pool_.clear(); }
+    const BufferPool& pool() const { return pool_; }
 
     /// The pipeline stage now running, named in OpenCL errors ("binning", "scalar_field", ...).
     /// Leaving a stage in which an injected fault was armed but did not fire fires it there.
@@ -57,12 +69,15 @@ public:
     /// if the device had returned CL_OUT_OF_RESOURCES. Empty: no fault.
     void inject_fault(const std::string& stage) { fault_stage_ = stage; }
     /// After a failed reconstruction: waits for what is still queued (ignoring errors) and drops the
-    /// pending events and timings, so the next reconstruction starts from a clean queue.
+    /// pending events and timings, and releases the pooled buffers, so the next reconstruction
+    /// starts from a clean queue and fresh buffers.
     void recover() noexcept;
 
 private:
     void build_program();
     void maybe_fail(const char* call);
+    cl::Buffer allocate(BufferPool::Entry& e, std::size_t bytes, const char* what);
+    void make_room(BufferPool::Entry& e, std::size_t& capacity, std::size_t bytes);
 
     DeviceInfo info_;
     cl::Device device_;
@@ -74,15 +89,18 @@ private:
     std::map<std::string, double> kernel_ms_;
     std::size_t work_group_ = 0;
     std::size_t max_candidates_ = 2048;
-    std::uint64_t budget_ = 0, allocated_ = 0;
-    std::uint64_t ram_room_ = 0;     ///< CPU devices: MemAvailable at reset_budget (0: no check)
-    std::int64_t live_at_reset_ = 0; ///< live device bytes of the process at reset_budget
+    BufferPool pool_;
+    std::uint64_t budget_ = 0, peak_lent_ = 0;
+    std::uint64_t ram_room_ = 0;      ///< CPU devices: MemAvailable at reset_budget (0: no check)
+    std::uint64_t held_at_reset_ = 0; ///< bytes the pool held at reset_budget
     std::string stage_, fault_stage_;
 };
 
 /// Device buffers of every runtime in the process that are allocated and not yet released (counted
 /// by the OpenCL destructor callback): a leak check for long runs.
 std::int64_t live_device_buffers();
+/// clCreateBuffer calls of every runtime in the process so far (the pool's allocations).
+std::int64_t device_buffer_allocations();
 
 /// MemAvailable of /proc/meminfo in bytes (0 when unknown): the host memory budget.
 std::uint64_t available_ram();

@@ -471,7 +471,7 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     for (auto& [name, ms] : rt.take_kernel_times()) s.kernel_ms.emplace_back(name, ms);
     rt.set_stage("");
     s.peak_memory_bytes = peak_rss_bytes();
-    s.device_memory_bytes = rt.allocated_bytes();
+    s.device_memory_bytes = rt.peak_lent_bytes();
     return mesh;
 }
 
@@ -520,6 +520,7 @@ Mesh Reconstructor::reconstruct(const float* xyz, std::size_t count, const Param
     // starts clean, and no partial mesh is returned.
     try {
         Mesh m = impl_->frame(xyz, count, params, s);
+        rt.end_frame();  // the frame's buffers stay pooled for the next one (trimmed when oversized)
         StageTimer timer(s);  // normals and attributes: world units, after any scaling or split
         add_vertex_data(m, xyz, count, params, attributes, timer);
         s.time_ms.emplace_back("total", std::chrono::duration<double, std::milli>(Clock::now() - t0).count());

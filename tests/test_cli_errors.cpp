@@ -7,36 +7,15 @@
 
 #include <sys/wait.h>
 
-#include "test_support.hpp"
+#include "cli_test_support.hpp"
 #include "trilevel/io.hpp"
 
 using trilevel::test::TempDir;
+using trilevel::test::CliResult;
+using trilevel::test::run_cli;
+using trilevel::test::slurp;
 
 namespace {
-
-struct CliResult {
-    int code = -1;
-    std::string out, err;
-};
-
-std::string slurp(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
-/// Runs the CLI with `args` (already shell-quoted where needed), capturing both streams.
-CliResult run_cli(const TempDir& tmp, const std::string& args) {
-    const std::string out = tmp.file("stdout.txt"), err = tmp.file("stderr.txt");
-    const std::string cmd = std::string("'") + TRILEVEL_CLI + "' " + args + " >'" + out + "' 2>'" + err + "'";
-    const int rc = std::system(cmd.c_str());
-    CliResult r;
-    r.code = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-    r.out = slurp(out);
-    r.err = slurp(err);
-    return r;
-}
 
 /// The command must fail with exactly one "trilevel: error:" line, and `output` must not exist.
 void require_cli_error(const TempDir& tmp, const std::string& args, const std::string& output, const std::string& what) {

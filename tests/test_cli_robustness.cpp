@@ -13,22 +13,16 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "test_support.hpp"
+#include "cli_test_support.hpp"
 #include "trilevel/io.hpp"
 
 extern char** environ;
 
 using trilevel::test::TempDir;
+using trilevel::test::slurp;
 namespace fs = std::filesystem;
 
 namespace {
-
-std::string slurp(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
 
 std::set<std::string> listing(const fs::path& dir) {
     std::set<std::string> names;

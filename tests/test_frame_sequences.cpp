@@ -7,33 +7,15 @@
 
 #include <sys/wait.h>
 
-#include "test_support.hpp"
+#include "cli_test_support.hpp"
 #include "trilevel/io.hpp"
 
 using trilevel::test::TempDir;
+using trilevel::test::CliResult;
+using trilevel::test::run_cli;
+using trilevel::test::slurp;
 
 namespace {
-
-struct CliResult {
-    int code = -1;
-    std::string out, err;
-};
-
-std::string slurp(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
-/// Runs the CLI with `args` (already shell-quoted), stdout and stderr to files (not a terminal:
-/// plain progress lines, no bar).
-CliResult run_cli(const TempDir& tmp, const std::string& args) {
-    const std::string out = tmp.file("stdout.txt"), err = tmp.file("stderr.txt");
-    const std::string cmd = std::string("'") + TRILEVEL_CLI + "' " + args + " >'" + out + "' 2>'" + err + "'";
-    const int rc = std::system(cmd.c_str());
-    return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, slurp(out), slurp(err)};
-}
 
 /// A 6 x 6 x 6 block of particles (spacing 2r, r = 0.025) moved by `shift` along x.
 trilevel::ParticleSet small_block(float shift) {

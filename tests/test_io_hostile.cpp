@@ -14,7 +14,7 @@
 
 #include "io/particle_formats.hpp"
 #include "io_test_files.hpp"
-#include "test_support.hpp"
+#include "cli_test_support.hpp"
 #include "trilevel/io.hpp"
 
 using trilevel::ReadOptions;
@@ -432,13 +432,6 @@ TEST_CASE("truncation sweep: every prefix of every format is an Error or yields 
 }
 
 namespace {
-
-std::string slurp(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
 
 }  // namespace
 

@@ -1,6 +1,6 @@
-// Long runs (issue 5, item 7): one Reconstructor reused for 200 frames keeps its memory and holds
-// no OpenCL buffer between frames; two Reconstructors in two threads give the single-threaded
-// meshes. Run alone with `ctest -R "long run"` or `trilevel_tests "[long]"`.
+// Long runs (issue 5, item 7): one Reconstructor reused for 200 frames keeps its memory, and its
+// buffer pool (issue 6) stops growing once the sequence has shown every size; two Reconstructors
+// in two threads give the single-threaded meshes. Run alone with `ctest -R "long run"` or `trilevel_tests "[long]"`.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -35,9 +35,16 @@ std::uint64_t status_bytes(const std::string& field) {
     return 0;
 }
 
-std::int64_t settled_live_buffers() {  // PoCL releases buffers used by finished commands on its own threads
-    for (int i = 0; i < 200 && live_device_buffers() != 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+/// Live device buffers once PoCL has released those used by finished commands (on its own threads)
+/// and `expected` is reached, or after a second.
+std::int64_t settled_live_buffers(std::int64_t expected) {
+    for (int i = 0; i < 200 && live_device_buffers() != expected; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
     return live_device_buffers();
+}
+/// Between frames every live buffer is a pooled one: anything else is a leak.
+std::int64_t settled_unpooled_buffers() {
+    settled_live_buffers(pooled_device_buffers());
+    return live_device_buffers() - pooled_device_buffers();
 }
 
 /// Frame f of a generated sequence with a period of 20 frames, so that the first 20 frames hold
@@ -75,35 +82,58 @@ Params params(float r) {
 
 TEST_CASE("long run: 200 frames through one Reconstructor keep memory and OpenCL objects stable", "[long]") {
     const float r = 0.025f;
-    Reconstructor rec;
-    std::uint64_t hwm20 = 0, rss20 = 0;
+    const std::int64_t live_before = settled_live_buffers(pooled_device_buffers()), pooled_before = pooled_device_bytes();
+    std::uint64_t hwm20 = 0, rss20 = 0, hwm200 = 0, rss200 = 0;
     std::size_t triangles = 0;
+    // Per period of 20 frames: the largest pool after a frame, and the allocations made.
+    std::int64_t pool_max[10] = {}, allocations[10] = {};
     Mesh mesh20;
     const auto start = std::chrono::steady_clock::now();
-    for (int f = 1; f <= 200; ++f) {
-        const std::vector<float> x = sequence_frame(f, r);
-        Stats st;
-        const Mesh m = rec.reconstruct(x.data(), x.size() / 3, params(r), &st);
-        REQUIRE(st.closed);
-        REQUIRE(m.triangle_count() > 0);
-        triangles += m.triangle_count();
-        if (f == 200) {  // the sequence repeats every 20 frames: frame 200 is frame 20, bit for bit
-            REQUIRE(m.positions == mesh20.positions);
-            REQUIRE(m.triangles == mesh20.triangles);
+    {
+        Reconstructor rec;
+        for (int f = 1; f <= 200; ++f) {
+            const std::vector<float> x = sequence_frame(f, r);
+            const std::int64_t allocated = device_buffer_allocations();
+            Stats st;
+            const Mesh m = rec.reconstruct(x.data(), x.size() / 3, params(r), &st);
+            REQUIRE(st.closed);
+            REQUIRE(m.triangle_count() > 0);
+            triangles += m.triangle_count();
+            const int period = (f - 1) / 20;
+            allocations[period] += device_buffer_allocations() - allocated;
+            pool_max[period] = std::max(pool_max[period], pooled_device_bytes() - pooled_before);
+            REQUIRE(pooled_device_bytes() - pooled_before >= std::int64_t(st.device_memory_bytes));
+            if (f == 200) {  // the sequence repeats every 20 frames: frame 200 is frame 20, bit for bit
+                REQUIRE(m.positions == mesh20.positions);
+                REQUIRE(m.triangles == mesh20.triangles);
+            }
+            if (f == 20) {
+                mesh20 = m;
+                REQUIRE(settled_unpooled_buffers() == 0);
+                hwm20 = status_bytes("VmHWM");
+                rss20 = status_bytes("VmRSS");
+            }
         }
-        if (f == 20) {
-            mesh20 = m;
-            REQUIRE(settled_live_buffers() == 0);
-            hwm20 = status_bytes("VmHWM");
-            rss20 = status_bytes("VmRSS");
+        hwm200 = status_bytes("VmHWM");
+        rss200 = status_bytes("VmRSS");
+        REQUIRE(settled_unpooled_buffers() == 0);  // every buffer of 200 frames released or pooled
+        for (int p = 1; p < 10; ++p) {
+            INFO("frames " << 20 * p + 1 << "-" << 20 * p + 20 << ": pool up to " << pool_max[p] << " bytes, "
+                           << allocations[p] << " allocations");
+            CHECK(pool_max[p] <= pool_max[1]);        // the pool does not grow once every size was seen
+            CHECK(allocations[p] <= allocations[1]);  // nor does its allocation rate
+            CHECK(allocations[p] < 20);               // most frames allocate nothing
         }
     }
+    // The Reconstructor's destructor gives every pooled buffer back.
+    CHECK(pooled_device_bytes() == pooled_before);
+    CHECK(settled_live_buffers(live_before) == live_before);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    REQUIRE(settled_live_buffers() == 0);  // every device buffer of 200 frames released
-    const std::uint64_t hwm200 = status_bytes("VmHWM"), rss200 = status_bytes("VmRSS");
     std::printf("long run: 200 frames, %zu triangles, %.1f s; peak RSS %.1f MB after frame 20, %.1f MB after 200; "
-                "RSS %.1f -> %.1f MB\n",
+                "RSS %.1f -> %.1f MB; allocations per 20 frames:",
                 triangles, seconds, hwm20 / 1e6, hwm200 / 1e6, rss20 / 1e6, rss200 / 1e6);
+    for (std::int64_t a : allocations) std::printf(" %lld", static_cast<long long>(a));
+    std::printf("; pool %.2f MB at most\n", pool_max[9] / 1e6);
     REQUIRE(hwm20 > 0);
 #if TRILEVEL_TEST_ASAN
     // ASan keeps freed memory in its quarantine (256 MB) before reuse, so RSS grows with any churn:
@@ -118,6 +148,7 @@ TEST_CASE("long run: 200 frames through one Reconstructor keep memory and OpenCL
 TEST_CASE("long run: two Reconstructors in two threads give the single-threaded meshes", "[long][threads]") {
     const float r = 0.025f;
     const ParticleSet a = generate_scene("pool-and-drop", r, 7), b = generate_scene("dam-break", r, 8);
+    const std::int64_t live_before = settled_live_buffers(pooled_device_buffers());
     Mesh alone_a, alone_b;
     {
         Reconstructor rec;
@@ -150,5 +181,5 @@ TEST_CASE("long run: two Reconstructors in two threads give the single-threaded 
         REQUIRE(same(out_a[i], alone_a));
         REQUIRE(same(out_b[i], alone_b));
     }
-    CHECK(settled_live_buffers() == 0);
+    CHECK(settled_live_buffers(live_before) == live_before);  // both pools released with their Reconstructors
 }

@@ -39,9 +39,11 @@ struct ScopedEnv {
 
 /// Device buffers alive once PoCL has finished releasing: it frees a buffer that queued commands
 /// used on its own threads, shortly after the last command is done.
-std::int64_t settled_live_buffers() {
-    for (int i = 0; i < 200 && live_device_buffers() != 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    return live_device_buffers();
+/// Between frames every live buffer belongs to a buffer pool; the rest are leaks.
+std::int64_t settled_unpooled_buffers() {
+    for (int i = 0; i < 200 && live_device_buffers() != pooled_device_buffers(); ++i)
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    return live_device_buffers() - pooled_device_buffers();
 }
 
 bool same_mesh(const Mesh& a, const Mesh& b) {
@@ -257,7 +259,9 @@ TEST_CASE("an OpenCL failure in any stage is a clear error and the Reconstructor
     const ParticleSet s = generate_scene("pool-and-drop", r, 5);
     auto& rec = robust_reconstructor();
     const Mesh expected = rec.reconstruct(s.positions.data(), s.size(), with_radius(r));
-    REQUIRE(settled_live_buffers() == 0);  // a Reconstructor holds no device buffer between frames
+    REQUIRE(settled_unpooled_buffers() == 0);  // between frames a Reconstructor holds only its pool
+    const std::int64_t pooled = pooled_device_bytes();
+    std::int64_t others = -1;  // pooled by other Reconstructors of the process, once rec's pool is gone
     for (const char* stage :
          {"binning", "surface_particles", "surface_cells", "scalar_field", "band_closure", "edge_refinement", "triangulation"}) {
         INFO("stage " << stage);
@@ -274,7 +278,10 @@ TEST_CASE("an OpenCL failure in any stage is a clear error and the Reconstructor
                 CHECK(msg.find("use a larger cell") != std::string::npos);
             }
         }
-        CHECK(settled_live_buffers() == 0);  // nothing held after the failure
+        CHECK(settled_unpooled_buffers() == 0);  // nothing held after the failure...
+        if (others < 0) others = pooled_device_bytes();
+        CHECK(pooled_device_bytes() == others);  // ...not even the pool, which a failure releases
+        CHECK(others < pooled);
         const Mesh again = rec.reconstruct(s.positions.data(), s.size(), with_radius(r));
         REQUIRE(same_mesh(again, expected));
     }

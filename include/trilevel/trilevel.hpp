@@ -109,7 +109,11 @@ struct Stats {
     std::vector<std::pair<std::string, double>> time_ms;  ///< milliseconds (wall) per stage in pipeline order, then "total"
     std::vector<std::pair<std::string, double>> kernel_ms; ///< milliseconds of OpenCL profiling time per kernel
     std::uint64_t peak_memory_bytes = 0;   ///< bytes; process peak resident memory after the run
-    std::uint64_t device_memory_bytes = 0; ///< bytes of device buffers allocated during the run (an upper bound)
+    /// Bytes of device buffers the run held at once at its peak (the largest of a split domain's
+    /// parts): the smallest Params::memory_limit_bytes its device buffers fit (the limit bounds
+    /// large host arrays too). The Reconstructor keeps its buffers for the next frame in a pool
+    /// that may hold more (growth slack, roles this frame did not use).
+    std::uint64_t device_memory_bytes = 0;
     bool closed = false;                   ///< every edge used twice in opposite directions
     /// Temporal coherence (adaptive mode, every frame after the first of a sequence): coarse cells
     /// this frame shares with the previous one, how many of those changed level, and how many

@@ -9,6 +9,7 @@ import subprocess
 import tempfile
 import threading
 import unittest
+import warnings
 
 import numpy as np
 
@@ -126,6 +127,74 @@ class ReconstructTest(unittest.TestCase):
             assert_bit_equal(self, tv, v)
             assert_bit_equal(self, tt, t)
 
+    def test_normals_are_unit_and_outward(self):
+        v, t, _ = self.rec.reconstruct(self.sphere, R)
+        radial = v - self.sphere.mean(axis=0)
+        radial /= np.linalg.norm(radial, axis=1)[:, None]
+        for mode in ("gradient", "area"):
+            nv, nt, stats, normals = self.rec.reconstruct(self.sphere, R, normals=mode)
+            assert_bit_equal(self, nv, v)  # normals do not change the mesh
+            assert_bit_equal(self, nt, t)
+            self.assertEqual(stats["parameters"]["normals"], mode)
+            self.assertEqual((normals.shape, normals.dtype), (v.shape, np.float32))
+            self.assertEqual(type(normals.base).__name__, "PyCapsule")
+            length = np.linalg.norm(normals, axis=1)
+            self.assertLess(np.abs(length - 1).max(), 1e-5, mode)
+            self.assertGreater(np.mean(np.sum(normals * radial, axis=1)), 0.95, mode)
+        _, _, stats = self.rec.reconstruct(self.sphere, R)
+        self.assertEqual(stats["parameters"]["normals"], "none")
+
+    def test_attributes_are_interpolated_at_the_vertices(self):
+        n = len(self.sphere)
+        rng = np.random.default_rng(5)
+        noise = rng.uniform(-3.0, 7.0, n)
+        attributes = {"density": np.full(n, 1000.5), "velocity": np.tile([0.25, -1.5, 3.0], (n, 1)), "noise": noise}
+        v, t, _, level, kind, normals, out = self.rec.reconstruct(
+            self.sphere, R, normals="area", attributes=attributes, return_levels=True)
+        self.assertEqual((level.shape, kind.shape, normals.shape), ((len(v),), (len(t),), v.shape))
+        self.assertEqual(list(out), ["density", "velocity", "noise"])  # the input's order
+        self.assertEqual({k: (a.shape, a.dtype) for k, a in out.items()},
+                         {"density": ((len(v),), np.float32), "velocity": ((len(v), 3), np.float32),
+                          "noise": ((len(v),), np.float32)})
+        # Shepard weights sum to one: constants come back exactly, anything else stays in its range.
+        self.assertTrue(np.all(out["density"] == np.float32(1000.5)))
+        self.assertTrue(np.all(out["velocity"] == np.float32([0.25, -1.5, 3.0])))
+        self.assertGreaterEqual(out["noise"].min(), noise.astype(np.float32).min())
+        self.assertLessEqual(out["noise"].max(), noise.astype(np.float32).max())
+        self.assertGreater(np.std(out["noise"]), 0.0)
+        # Attributes do not change the mesh.
+        v0, t0, _ = self.rec.reconstruct(self.sphere, R)
+        assert_bit_equal(self, v, v0)
+        assert_bit_equal(self, t, t0)
+        _, _, _, empty = self.rec.reconstruct(self.sphere, R, attributes={})
+        self.assertEqual(empty, {})
+
+    def test_level_hysteresis_and_reset_history(self):
+        frames = [trilevel.generate_scene("falling-drop", R, frame=f) for f in range(0, 12, 2)]
+        held = {}
+        for h in (0.0, 0.2):
+            rec = trilevel.Reconstructor()
+            _, _, first = rec.reconstruct(frames[0], R, level_hysteresis=h)
+            self.assertNotIn("level_flips", first)  # nothing to compare the first frame with
+            self.assertEqual(first["parameters"]["level_hysteresis"], np.float32(h))
+            held[h] = 0
+            for p in frames[1:]:
+                _, _, stats = rec.reconstruct(p, R, level_hysteresis=h)
+                flips = stats["level_flips"]
+                self.assertGreater(flips["compared"], 0)
+                self.assertLessEqual(flips["changed"], flips["compared"])
+                held[h] += flips["held_by_hysteresis"]
+            # After reset_history the next frame is reconstructed as if alone: no comparison, and
+            # the same mesh as a fresh Reconstructor gives.
+            rec.reset_history()
+            v, t, stats = rec.reconstruct(frames[-1], R, level_hysteresis=h)
+            self.assertNotIn("level_flips", stats)
+            fv, ft, _ = trilevel.reconstruct(frames[-1], R, level_hysteresis=h)
+            assert_bit_equal(self, v, fv)
+            assert_bit_equal(self, t, ft)
+        self.assertEqual(held[0.0], 0)
+        self.assertGreater(held[0.2], 0)
+
 
 class ErrorTest(unittest.TestCase):
     @classmethod
@@ -149,7 +218,7 @@ class ErrorTest(unittest.TestCase):
         self.assert_error("particle 7 has a non-finite coordinate", self.rec.reconstruct, bad, R)
         self.assert_error("positions must be an array of shape (n, 3), got shape (4, 2)",
                           self.rec.reconstruct, np.zeros((4, 2), np.float32), R)
-        self.assert_error("got shape (12)", self.rec.reconstruct, np.zeros(12, np.float32), R)
+        self.assert_error("got shape (12,)", self.rec.reconstruct, np.zeros(12, np.float32), R)
         self.assert_error("no particles", self.rec.reconstruct, np.zeros((0, 3), np.float32), R)
 
     def test_bad_parameters(self):
@@ -159,6 +228,19 @@ class ErrorTest(unittest.TestCase):
         self.assert_error("cell size", self.rec.reconstruct, self.ok, R, mode="uniform", cell=3.0)
         self.assert_error("kernel radius", self.rec.reconstruct, self.ok, R, kernel_radius=40.0)
         self.assert_error("curvature threshold", self.rec.reconstruct, self.ok, R, curvature_threshold=float("inf"))
+        self.assert_error("level hysteresis must lie in [0, 1)", self.rec.reconstruct, self.ok, R, level_hysteresis=1.0)
+        self.assert_error("normals must be None, 'gradient' or 'area', got 'flat'",
+                          self.rec.reconstruct, self.ok, R, normals="flat")
+
+    def test_bad_attributes(self):
+        n = len(self.ok)
+        self.assert_error(f"attribute 'velocity' must have shape ({n},) or ({n}, 3), one value per particle, "
+                          f"got shape ({n}, 2)", self.rec.reconstruct, self.ok, R, attributes={"velocity": np.zeros((n, 2))})
+        self.assert_error(f"got shape ({n - 1},)", self.rec.reconstruct, self.ok, R, attributes={"d": np.zeros(n - 1)})
+        bad = np.ones(n)
+        bad[3] = np.inf
+        self.assert_error("particle attribute 'd': particle 3 has a non-finite value",
+                          self.rec.reconstruct, self.ok, R, attributes={"d": bad})
 
     def test_io_errors_name_the_file(self):
         with tempfile.TemporaryDirectory() as tmp:
@@ -187,45 +269,149 @@ class IoTest(unittest.TestCase):
                 assert_bit_equal(self, rv, v)
                 assert_bit_equal(self, rt, t)
 
+    def test_normals_and_attributes_round_trip(self):
+        p = trilevel.generate_scene("sphere", R)
+        v, t, _, level, _, normals, attributes = trilevel.reconstruct(
+            p, R, return_levels=True, normals="gradient",
+            attributes={"speed": np.linalg.norm(p, axis=1), "velocity": p * 2})
+        with tempfile.TemporaryDirectory() as tmp:
+            for ext in ("ply", "vtk", "obj"):
+                path = os.path.join(tmp, "m." + ext)
+                trilevel.write_mesh(path, v, t, vertex_level=level, normals=normals, attributes=attributes)
+                rv, rt, rn, ra = trilevel.read_mesh(path, return_normals=True, return_attributes=True)
+                assert_bit_equal(self, rv, v)
+                assert_bit_equal(self, rt, t)
+                assert_bit_equal(self, rn, normals)
+                if ext == "obj":  # OBJ cannot hold attributes
+                    self.assertEqual(ra, {})
+                    continue
+                self.assertEqual(list(ra), ["speed", "velocity"])
+                for name in ra:
+                    assert_bit_equal(self, ra[name], attributes[name])
+            trilevel.write_mesh(os.path.join(tmp, "plain.ply"), v, t)
+            self.assertIsNone(trilevel.read_mesh(os.path.join(tmp, "plain.ply"), return_normals=True)[2])
+
+    def test_read_particles_with_attributes(self):
+        frame = shared_frame("double_dam_break_frame_26_4732_particles.vtk")
+        positions, attributes = trilevel.read_particles(frame, attributes=["velocity"])
+        assert_bit_equal(self, positions, trilevel.read_particles(frame))  # the plain call: an array
+        self.assertEqual(list(attributes), ["velocity"])
+        velocity = attributes["velocity"]
+        self.assertEqual((velocity.shape, velocity.dtype), ((4732, 3), np.float32))
+        self.assertTrue(np.all(np.isfinite(velocity)))
+        self.assertGreater(np.abs(velocity).max(), 0.1)  # a moving fluid, not zeros
+        only_positions, none = trilevel.read_particles(frame, [])  # a list, even empty: a pair
+        assert_bit_equal(self, only_positions, positions)
+        self.assertEqual(none, {})
+        with self.assertRaises(trilevel.Error) as caught:
+            trilevel.read_particles(frame, attributes=["pressure"])
+        self.assertIn("no point attribute 'pressure' (the file has: id, velocity)", str(caught.exception))
+
+    def test_read_particles_drops_invalid_ones_when_asked(self):
+        p = trilevel.generate_scene("block", R)[:100].copy()
+        p[5, 1] = np.nan
+        p[70, 2] = np.inf
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "nan.xyz")  # .xyz: little-endian float32 triplets
+            p.astype("<f4").tofile(path)
+            with self.assertRaises(trilevel.Error) as caught:
+                trilevel.read_particles(path)
+            self.assertIn("particle 5: non-finite coordinate", str(caught.exception))
+            with warnings.catch_warnings(record=True) as caught_warnings:
+                warnings.simplefilter("always")
+                kept = trilevel.read_particles(path, drop_invalid=True)
+            self.assertEqual([str(w.message) for w in caught_warnings],
+                             [f"{path}: dropped 2 particles with NaN/Inf coordinates"])
+            self.assertIs(caught_warnings[0].category, RuntimeWarning)
+            assert_bit_equal(self, kept, np.delete(p, [5, 70], axis=0))
+
 
 class CliAgreementTest(unittest.TestCase):
     """The module and the CLI run the same library: same frame, same mesh, bit for bit."""
 
-    def run_both(self, frame, tmp, *cli_args, **kwargs):
+    def cli(self, *args):
         cli = os.environ.get("TRILEVEL_CLI", "")
         if not os.path.isfile(cli):
             self.skipTest("SKIPPED: TRILEVEL_CLI does not name the trilevel binary")
-        cli_mesh, cli_stats = os.path.join(tmp, "cli.ply"), os.path.join(tmp, "cli.json")
-        subprocess.run([cli, "reconstruct", frame, "-r", str(R), "-o", cli_mesh, "--stats", cli_stats, "-q", *cli_args],
-                       check=True)
-        v, t, stats, level, _ = trilevel.reconstruct(trilevel.read_particles(frame), R, return_levels=True, **kwargs)
-        cv, ct = trilevel.read_mesh(cli_mesh)
-        assert_bit_equal(self, v, cv)
-        assert_bit_equal(self, t, ct)
-        with open(cli_stats) as f:
+        subprocess.run([cli, *args], check=True)
+
+    def assert_same_stats(self, stats, cli_stats_path):
+        with open(cli_stats_path) as f:
             expected = json.load(f)
         self.assertEqual(stats.keys(), expected.keys())
         for key in ("time_ms", "kernel_ms", "peak_memory_bytes"):  # measurements, not results
             del stats[key], expected[key]
         self.assertEqual(stats, expected)
-        return v, t, level, cli_mesh
+
+    def run_both(self, frame, tmp, cli_args, attributes=(), **kwargs):
+        """Reconstructs `frame` with the CLI given `cli_args` and with the module given `kwargs` (the
+        same parameters, and the particle `attributes` named); checks that the meshes, normals,
+        attributes and statistics agree and that write_mesh writes the CLI's PLY file byte for byte."""
+        cli_mesh, cli_stats = os.path.join(tmp, "cli.ply"), os.path.join(tmp, "cli.json")
+        self.cli("reconstruct", frame, "-r", str(R), "-o", cli_mesh, "--stats", cli_stats, "-q", *cli_args)
+        if attributes:
+            positions, kwargs["attributes"] = trilevel.read_particles(frame, attributes=list(attributes))
+        else:
+            positions = trilevel.read_particles(frame)
+        v, t, stats, level, _, *extra = trilevel.reconstruct(positions, R, return_levels=True, **kwargs)
+        normals = extra.pop(0) if kwargs.get("normals") else None
+        vertex_attributes = extra.pop(0) if attributes else {}
+        cv, ct, cn, ca = trilevel.read_mesh(cli_mesh, return_normals=True, return_attributes=True)
+        assert_bit_equal(self, v, cv)
+        assert_bit_equal(self, t, ct)
+        if normals is None:
+            self.assertIsNone(cn)
+        else:
+            assert_bit_equal(self, normals, cn)
+        self.assertEqual(list(ca), list(attributes))
+        for name in attributes:
+            assert_bit_equal(self, vertex_attributes[name], ca[name])
+        self.assert_same_stats(stats, cli_stats)
+        mine = os.path.join(tmp, "python.ply")
+        trilevel.write_mesh(mine, v, t, vertex_level=level, normals=normals, attributes=vertex_attributes or None)
+        with open(mine, "rb") as a, open(cli_mesh, "rb") as b:
+            self.assertEqual(a.read(), b.read())
+        return v, t
 
     def test_dam_break_frame_adaptive(self):
         frame = shared_frame("dam_break_frame_23_24389_particles.bgeo")
         with tempfile.TemporaryDirectory() as tmp:
-            v, t, level, cli_mesh = self.run_both(frame, tmp)
+            # 0.2: the CLI's level hysteresis (README); on a single file it only shows in the parameters.
+            v, t = self.run_both(frame, tmp, [], level_hysteresis=0.2)
             assert_closed(self, v, t)
             self.assertEqual(len(trilevel.read_particles(frame)), 24389)
-            # Written from Python with the levels, the PLY file is the CLI's byte for byte.
-            mine = os.path.join(tmp, "python.ply")
-            trilevel.write_mesh(mine, v, t, vertex_level=level)
-            with open(mine, "rb") as a, open(cli_mesh, "rb") as b:
-                self.assertEqual(a.read(), b.read())
 
     def test_dam_break_frame_uniform(self):
         frame = shared_frame("dam_break_frame_23_24389_particles.bgeo")
         with tempfile.TemporaryDirectory() as tmp:
-            self.run_both(frame, tmp, "--mode", "uniform", "--cell", "2", mode="uniform", cell=2.0)
+            self.run_both(frame, tmp, ["--mode", "uniform", "--cell", "2", "--level-hysteresis", "0"],
+                          mode="uniform", cell=2.0)
+
+    def test_normals_and_attributes(self):
+        frame = shared_frame("double_dam_break_frame_26_4732_particles.vtk")
+        with tempfile.TemporaryDirectory() as tmp:
+            v, t = self.run_both(frame, tmp, ["--normals", "--attribute", "velocity"], attributes=["velocity"],
+                                 normals="gradient", level_hysteresis=0.2)
+            assert_closed(self, v, t)
+            self.run_both(frame, tmp, ["--normals", "area", "--level-hysteresis", "0"], normals="area")
+
+    def test_frame_sequence_with_level_hysteresis(self):
+        """The CLI reconstructs a sequence on one Reconstructor with level hysteresis 0.2; so does a
+        Reconstructor in Python, frame by frame, level changes included."""
+        with tempfile.TemporaryDirectory() as tmp:
+            frames = [trilevel.generate_scene("falling-drop", R, frame=f) for f in (0, 3, 6, 9)]
+            for i, p in enumerate(frames):
+                trilevel.write_particles(os.path.join(tmp, f"d_{i}.xyz"), p)
+            self.cli("reconstruct", os.path.join(tmp, "d_{}.xyz"), "-r", str(R), "-o", os.path.join(tmp, "m_{}.ply"),
+                     "--stats", os.path.join(tmp, "s_{}.json"), "-q")
+            rec = trilevel.Reconstructor()
+            for i, p in enumerate(frames):
+                v, t, stats = rec.reconstruct(p, R, level_hysteresis=0.2)
+                self.assertEqual("level_flips" in stats, i > 0)
+                cv, ct = trilevel.read_mesh(os.path.join(tmp, f"m_{i}.ply"))
+                assert_bit_equal(self, v, cv)
+                assert_bit_equal(self, t, ct)
+                self.assert_same_stats(stats, os.path.join(tmp, f"s_{i}.json"))
 
 
 class ReadmeTest(unittest.TestCase):
@@ -244,8 +430,19 @@ class ReadmeTest(unittest.TestCase):
             finally:
                 os.chdir(cwd)
             v, t = trilevel.read_mesh(os.path.join(tmp, "surface.ply"))
+            sv, st, normals, attributes = trilevel.read_mesh(os.path.join(tmp, "shaded.ply"), return_normals=True,
+                                                             return_attributes=True)
         assert_closed(self, v, t)
-        self.assertEqual(scope["stats"]["parameters"]["mode"], "uniform")
+        assert_bit_equal(self, sv, v)
+        assert_bit_equal(self, st, t)
+        self.assertEqual((normals.shape, list(attributes), attributes["velocity"].shape), (v.shape, ["velocity"], v.shape))
+        # The drop's vertices move down at 2, the pool's rest; in between only where both are near.
+        vy = attributes["velocity"][:, 1]
+        self.assertTrue(np.all(attributes["velocity"][:, [0, 2]] == 0))
+        self.assertEqual((vy.min(), vy.max()), (-2, 0))
+        self.assertGreater(np.mean((vy == -2) | (vy == 0)), 0.99)
+        self.assertEqual(scope["stats"]["parameters"]["level_hysteresis"], np.float32(0.2))
+        self.assertGreater(scope["stats"]["level_flips"]["compared"], 0)
         self.assertIn("# %d triangles, closed: True" % len(t), code)  # the output the README shows
 
 
