@@ -58,6 +58,13 @@ for t in "${targets[@]}"; do
   [ -x "$dir/fuzz_$t" ] || { echo "run_fuzz.sh: no target $dir/fuzz_$t" >&2; exit 2; }
 done
 
+# A binary that cannot start (say, an older glibc than the build machine's) is not a finding.
+for t in "${targets[@]}"; do
+  if ! err=$("$dir/fuzz_$t" -help=1 2>&1 >/dev/null); then
+    echo "run_fuzz.sh: $dir/fuzz_$t does not run here: $(echo "$err" | head -1)" >&2; exit 2
+  fi
+done
+
 mkdir -p "$out/logs"
 run_one() {
   local t="$1" dict=()
