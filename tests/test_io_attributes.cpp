@@ -31,7 +31,7 @@ const trilevel::ParticleAttribute& attribute(const ParticleSet& set, const std::
 
 /// Bit-exact comparison (NaN-safe, -0 distinct from 0).
 bool same_bits(const std::vector<float>& a, const std::vector<float>& b) {
-    return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
+    return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0);
 }
 
 void require_attribute(const ParticleSet& set, const TestAttribute& expected) {

@@ -16,6 +16,14 @@
 
 using namespace trilevel;
 
+#if defined(__SANITIZE_ADDRESS__)  // gcc
+#define TRILEVEL_TEST_ASAN 1
+#elif defined(__has_feature)  // clang
+#if __has_feature(address_sanitizer)
+#define TRILEVEL_TEST_ASAN 1
+#endif
+#endif
+
 namespace {
 
 /// A field of /proc/self/status in bytes ("VmHWM": peak resident, "VmRSS": resident now).
@@ -127,8 +135,14 @@ TEST_CASE("long run: 200 frames through one Reconstructor keep memory and OpenCL
     for (std::int64_t a : allocations) std::printf(" %lld", static_cast<long long>(a));
     std::printf("; pool %.2f MB at most\n", pool_max[9] / 1e6);
     REQUIRE(hwm20 > 0);
+#if TRILEVEL_TEST_ASAN
+    // ASan keeps freed memory in its quarantine (256 MB) before reuse, so RSS grows with any churn:
+    // it says nothing about leaks in that build, where LeakSanitizer checks them instead.
+    WARN("RSS stability not checked under AddressSanitizer");
+#else
     CHECK(double(hwm200) <= 1.05 * double(hwm20));
     CHECK(double(rss200) <= 1.05 * double(rss20));
+#endif
 }
 
 TEST_CASE("long run: two Reconstructors in two threads give the single-threaded meshes", "[long][threads]") {

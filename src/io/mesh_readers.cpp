@@ -2,6 +2,7 @@
 // write_mesh writes and common variants of it (polygons are fan-triangulated).
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "io/io_common.hpp"
 #include "io/particle_formats.hpp"
@@ -11,6 +12,13 @@
 namespace trilevel {
 namespace io {
 namespace {
+
+/// A value read from the file, short enough for a message (1e300 too).
+std::string number_text(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.10g", v);
+    return buf;
+}
 
 void add_polygon(const std::string& path, const std::string& where, const std::vector<std::int64_t>& idx, Mesh& mesh) {
     for (std::int64_t v : idx)
@@ -70,9 +78,16 @@ void read_ply_vertices(const std::string& path, PlyValueReader& r, const PlyElem
         for (std::size_t k = 0; k < e.props.size(); ++k) {
             if (role[k] == Skip) { r.skip(e.props[k]); continue; }
             const double v = r.next(e.props[k].type);
-            if (role[k] >= 0) v6[role[k]] = static_cast<float>(v);
-            else if (role[k] == Level) mesh.vertex_level.push_back(static_cast<std::uint8_t>(v));
-            else columns[column++].push_back(static_cast<float>(v));
+            if (role[k] >= 3) {
+                v6[role[k]] = static_cast<float>(v);
+            } else if (role[k] >= 0) {
+                v6[role[k]] = to_float_checked(path, v, mesh.positions.size() + role[k]);
+            } else if (role[k] == Level) {
+                if (!(v >= 0 && v <= 255)) fail(path, r.where() + ": vertex level " + number_text(v) + " out of range 0..255");
+                mesh.vertex_level.push_back(static_cast<std::uint8_t>(v));
+            } else {
+                columns[column++].push_back(static_cast<float>(v));
+            }
         }
         mesh.positions.insert(mesh.positions.end(), v6, v6 + 3);
         if (normals) mesh.normals.insert(mesh.normals.end(), v6 + 3, v6 + 6);
@@ -82,12 +97,17 @@ void read_ply_vertices(const std::string& path, PlyValueReader& r, const PlyElem
 
 void read_ply_faces(const std::string& path, PlyValueReader& r, const PlyElement& e, Mesh& mesh) {
     std::vector<std::int64_t> idx;
-    for (std::uint64_t i = 0; i < e.count; ++i)
+    for (std::uint64_t i = 0; !e.props.empty() && i < e.count; ++i)
         for (const auto& p : e.props) {
             if (!p.list_count || (p.name != "vertex_indices" && p.name != "vertex_index")) { r.skip(p); continue; }
             const std::string where = r.where();
             idx.resize(r.list_length(*p.list_count));
-            for (auto& v : idx) v = static_cast<std::int64_t>(r.next(p.type));
+            for (auto& v : idx) {
+                const double x = r.next(p.type);  // range-checked before the cast: a double may hold anything
+                if (!(x >= 0 && x < static_cast<double>(mesh.vertex_count())))
+                    fail(path, where + ": vertex index " + number_text(x) + " out of range");
+                v = static_cast<std::int64_t>(x);
+            }
             add_polygon(path, where, idx, mesh);
         }
 }
@@ -110,6 +130,8 @@ std::int64_t obj_index(const std::string& path, std::size_t line, std::string_vi
     double v;
     if (!parse_double(tok, v) || v == 0 || v != std::floor(v))
         fail(path, "line " + std::to_string(line) + ": bad face index '" + std::string(tok) + "'");
+    if (std::fabs(v) > static_cast<double>(nv))  // before the cast, which a huge value would overflow
+        fail(path, "line " + std::to_string(line) + ": face index '" + std::string(tok) + "' out of range");
     return v > 0 ? static_cast<std::int64_t>(v) - 1 : static_cast<std::int64_t>(nv) + static_cast<std::int64_t>(v);
 }
 
@@ -162,6 +184,11 @@ Mesh read_mesh(const std::string& path) {
     if (ext != "ply" && ext != "obj" && ext != "vtk")
         fail(path, "unknown mesh file extension '" + ext + "', expected .ply, .obj or .vtk");
     const std::string data = read_file(path);
+    return read_mesh_from_memory(ext, path, data);
+}
+
+/// `ext` is ply, obj or vtk: read_mesh has checked it.
+Mesh io::read_mesh_from_memory(const std::string& ext, const std::string& path, const std::string& data) {
     Mesh mesh = ext == "ply" ? read_ply_mesh(path, data) : ext == "obj" ? read_obj_mesh(path, data) : read_vtk_mesh(path, data);
     if (!mesh.vertex_level.empty() && mesh.vertex_level.size() != mesh.vertex_count())
         fail(path, "vertex level count does not match the vertex count");

@@ -39,7 +39,7 @@ void header_line(const std::string& path, std::size_t line_no, std::string_view 
         else bad("expected format ascii|binary_little_endian|binary_big_endian 1.0");
         have_format = true;
     } else if (t[0] == "element") {
-        std::uint64_t n;
+        std::uint64_t n = 0;  // (bad() does not return; clang cannot tell)
         if (t.size() < 3 || !parse_u64(t[2], n)) bad("expected element <name> <count>");
         h.elements.push_back({std::string(t[1]), n, {}});
     } else if (t[0] == "property") {

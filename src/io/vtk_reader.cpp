@@ -92,7 +92,9 @@ public:
             std::vector<std::int64_t> out(count);
             for (std::uint64_t i = 0; i < count; ++i) {
                 const double v = load_scalar(data_.data() + pos_ + i * scalar_size(t), t, true);
-                out[i] = v >= -9.2e18 && v <= 9.2e18 ? static_cast<std::int64_t>(v) : -1;  // out of range: an invalid index
+                if (!(v == std::floor(v) && std::fabs(v) <= 9.2e18))  // before the cast, which would overflow
+                    error_at("integer value is not whole or out of range");
+                out[i] = static_cast<std::int64_t>(v);
             }
             advance(count * scalar_size(t));
             return out;
