@@ -144,7 +144,8 @@ std::vector<trilevel::ParticleAttribute> requested_attributes(const std::string&
 
 /// One input file -> one mesh (and stats) file. Prints the summary unless quiet or `result` is
 /// given, which receives a one-line summary and the level changes instead (frame sequences).
-void reconstruct_file(trilevel::Reconstructor& rec, const trilevel::Params& params, const ReconstructArgs& a,
+/// `rec` is created once the first input has been read: a bad file fails before OpenCL starts.
+void reconstruct_file(std::optional<trilevel::Reconstructor>& rec, const trilevel::Params& params, const ReconstructArgs& a,
                       const std::string& input, const std::string& output, const std::string& stats_path,
                       trilevel::cli::FrameResult* result = nullptr) {
     const auto start = std::chrono::steady_clock::now();
@@ -156,8 +157,9 @@ void reconstruct_file(trilevel::Reconstructor& rec, const trilevel::Params& para
         std::fprintf(stderr, "warning: %s: dropped %zu particles with NaN/Inf coordinates\n", input.c_str(), particles.dropped_invalid);
     if (particles.size() == 0) throw trilevel::Error(input + ": holds no particles");
     const auto attributes = requested_attributes(input, particles, a.attributes);
+    if (!rec) rec.emplace(a.device);  // compiled kernels and buffers are reused across frames
     trilevel::Stats stats;
-    const trilevel::Mesh mesh = rec.reconstruct(particles.positions.data(), particles.size(), params, &stats, attributes);
+    const trilevel::Mesh mesh = rec->reconstruct(particles.positions.data(), particles.size(), params, &stats, attributes);
     trilevel::MeshWriteOptions options;
     options.color_levels = a.color_levels;
     trilevel::write_mesh(output, mesh, options);
@@ -197,7 +199,7 @@ int run_reconstruct(const ReconstructArgs& a) {
     check_output(trilevel::cli::frame_path(a.output, "0"), {"ply", "obj", "vtk"}, "mesh");
     if (!a.stats.empty()) check_output(trilevel::cli::frame_path(a.stats, "0"), {"json"}, "statistics");
     if (!sequence) {
-        trilevel::Reconstructor rec(a.device);
+        std::optional<trilevel::Reconstructor> rec;
         reconstruct_file(rec, params, a, a.input, a.output, a.stats);
         return 0;
     }
@@ -208,8 +210,8 @@ int run_reconstruct(const ReconstructArgs& a) {
     options.quiet = a.quiet;
     options.progress_bar = ::isatty(STDERR_FILENO) != 0;
     const auto plan = trilevel::cli::plan_frame_sequence(a.input, a.output, a.stats, options);
-    trilevel::Reconstructor rec(a.device);  // compiled kernels are reused across frames
-    rec.reset_history();                    // the first frame's levels do not depend on anything before
+    std::optional<trilevel::Reconstructor> rec;  // one for the whole run, from its first frame: no level
+                                                 // history before that frame
     return trilevel::cli::run_frame_sequence(plan, options, [&](const trilevel::cli::FrameJob& job) {
         trilevel::cli::FrameResult result;
         reconstruct_file(rec, params, a, job.input, job.output, job.stats, &result);
