@@ -117,6 +117,23 @@ TEST_CASE("read_mesh accepts ascii PLY and OBJ polygons with negative and slashe
     REQUIRE_THROWS_WITH(trilevel::read_mesh(tmp.file("bad.obj")), Catch::Contains("bad.obj") && Catch::Contains("line 2"));
 }
 
+TEST_CASE("read_mesh rejects non-finite normals and attributes, and VTK levels outside 0..255", "[io]") {
+    TempDir tmp;
+    const std::string head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                             "property float z\nproperty float nx\nproperty float ny\nproperty float nz\n"
+                             "property float density\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+    std::ofstream(tmp.file("ok.ply")) << head << "0 0 0 0 0 1 5\n1 0 0 0 0 1 5\n0 1 0 0 0 1 5\n3 0 1 2\n";
+    REQUIRE(trilevel::read_mesh(tmp.file("ok.ply")).normals.size() == 9);
+    std::ofstream(tmp.file("n.ply")) << head << "0 0 0 0 0 nan 5\n1 0 0 0 0 1 5\n0 1 0 0 0 1 5\n3 0 1 2\n";
+    REQUIRE_THROWS_WITH(trilevel::read_mesh(tmp.file("n.ply")), Catch::Contains("n.ply") && Catch::Contains("normal is not finite"));
+    std::ofstream(tmp.file("d.ply")) << head << "0 0 0 0 0 1 5\n1 0 0 0 0 1 inf\n0 1 0 0 0 1 5\n3 0 1 2\n";
+    REQUIRE_THROWS_WITH(trilevel::read_mesh(tmp.file("d.ply")), Catch::Contains("attribute 'density'") && Catch::Contains("not finite"));
+    std::ofstream(tmp.file("l.vtk")) << "# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nPOINTS 3 float\n"
+                                        "0 0 0 1 0 0 0 1 0\nPOLYGONS 1 4\n3 0 1 2\nPOINT_DATA 3\nSCALARS level int 1\n"
+                                        "LOOKUP_TABLE default\n2 3 300\n";
+    REQUIRE_THROWS_WITH(trilevel::read_mesh(tmp.file("l.vtk")), Catch::Contains("l.vtk") && Catch::Contains("vertex level 300 out of range"));
+}
+
 TEST_CASE("writes are atomic: clear errors, no partial or temporary files", "[io]") {
     TempDir tmp;
     const auto p = awkward_particles();

@@ -194,9 +194,15 @@ Mesh io::read_mesh_from_memory(const std::string& ext, const std::string& path, 
         fail(path, "vertex level count does not match the vertex count");
     if (!mesh.normals.empty() && mesh.normals.size() != mesh.positions.size())
         fail(path, "normal count does not match the vertex count");
-    for (const auto& a : mesh.attributes)
+    auto all_finite = [](const std::vector<float>& v) {
+        return std::all_of(v.begin(), v.end(), [](float x) { return std::isfinite(x); });
+    };
+    if (!all_finite(mesh.normals)) fail(path, "a vertex normal is not finite (NaN or Inf)");
+    for (const auto& a : mesh.attributes) {
         if (a.values.size() != std::size_t(a.components) * mesh.vertex_count())
             fail(path, "vertex attribute '" + a.name + "' does not have one value per vertex");
+        if (!all_finite(a.values)) fail(path, "vertex attribute '" + a.name + "' has a value that is not finite (NaN or Inf)");
+    }
     return mesh;
 }
 

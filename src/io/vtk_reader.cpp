@@ -405,6 +405,8 @@ void read_point_array(VtkCursor& cur, const std::vector<std::string_view>& t, bo
     const std::uint64_t n = comps * mesh.vertex_count();
     if (scalars && t[1] == "level" && comps == 1) {
         const auto v = cur.read_ints(n, *type, binary);
+        for (const std::int64_t level : v)
+            if (level < 0 || level > 255) cur.error("vertex level " + std::to_string(level) + " out of range 0..255");
         mesh.vertex_level.assign(v.begin(), v.end());
     } else if (kw == "NORMALS") {
         mesh.normals = cur.read_values(n, *type, binary);
