@@ -16,11 +16,15 @@
 
 #include <zlib.h>
 
+#include "../tests/encodings.hpp"
 #include "trilevel/io.hpp"
 
 namespace fs = std::filesystem;
 using trilevel::Mesh;
 using trilevel::ParticleSet;
+using trilevel::test::b64;
+using trilevel::test::gzip;
+using trilevel::test::zcompress;
 
 namespace {
 
@@ -50,46 +54,6 @@ std::string num_text(double v) {
     char b[64];
     std::snprintf(b, sizeof b, "%.9g", v);
     return b;
-}
-
-std::string b64(const std::string& in) {
-    static const char* t = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    std::string out;
-    for (std::size_t i = 0; i < in.size(); i += 3) {
-        const std::uint32_t a = static_cast<unsigned char>(in[i]);
-        const std::uint32_t b = i + 1 < in.size() ? static_cast<unsigned char>(in[i + 1]) : 0;
-        const std::uint32_t c = i + 2 < in.size() ? static_cast<unsigned char>(in[i + 2]) : 0;
-        const std::uint32_t w = (a << 16) | (b << 8) | c;
-        out += t[w >> 18];
-        out += t[(w >> 12) & 63];
-        out += i + 1 < in.size() ? t[(w >> 6) & 63] : '=';
-        out += i + 2 < in.size() ? t[w & 63] : '=';
-    }
-    return out;
-}
-
-std::string zcompress(const std::string& in) {
-    uLongf len = compressBound(static_cast<uLong>(in.size()));
-    std::string out(len, '\0');
-    if (compress(reinterpret_cast<Bytef*>(out.data()), &len, reinterpret_cast<const Bytef*>(in.data()),
-                 static_cast<uLong>(in.size())) != Z_OK)
-        throw std::runtime_error("zlib compress failed");
-    out.resize(len);
-    return out;
-}
-
-std::string gzip(const std::string& in) {
-    z_stream zs{};
-    if (deflateInit2(&zs, 6, Z_DEFLATED, 16 + MAX_WBITS, 8, Z_DEFAULT_STRATEGY) != Z_OK) throw std::runtime_error("gzip init failed");
-    std::string out(deflateBound(&zs, static_cast<uLong>(in.size())) + 64, '\0');
-    zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in.data()));
-    zs.avail_in = static_cast<uInt>(in.size());
-    zs.next_out = reinterpret_cast<Bytef*>(out.data());
-    zs.avail_out = static_cast<uInt>(out.size());
-    if (deflate(&zs, Z_FINISH) != Z_STREAM_END) throw std::runtime_error("gzip failed");
-    out.resize(zs.total_out);
-    deflateEnd(&zs);
-    return out;
 }
 
 /// The first n particles of a generated scene.

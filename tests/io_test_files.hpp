@@ -12,6 +12,7 @@
 
 #include <zlib.h>
 
+#include "encodings.hpp"
 #include "test_support.hpp"
 
 namespace trilevel::test {
@@ -36,45 +37,6 @@ std::string be_bytes(T v) {
 template <class T>
 std::string le_bytes(T v) {
     return std::string(reinterpret_cast<const char*>(&v), sizeof(T));
-}
-
-inline std::string b64(const std::string& in) {
-    static const char* t = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    std::string out;
-    for (std::size_t i = 0; i < in.size(); i += 3) {
-        const std::uint32_t a = static_cast<unsigned char>(in[i]);
-        const std::uint32_t b = i + 1 < in.size() ? static_cast<unsigned char>(in[i + 1]) : 0;
-        const std::uint32_t c = i + 2 < in.size() ? static_cast<unsigned char>(in[i + 2]) : 0;
-        const std::uint32_t w = (a << 16) | (b << 8) | c;
-        out += t[w >> 18];
-        out += t[(w >> 12) & 63];
-        out += i + 1 < in.size() ? t[(w >> 6) & 63] : '=';
-        out += i + 2 < in.size() ? t[w & 63] : '=';
-    }
-    return out;
-}
-
-inline std::string zcompress(const std::string& in) {
-    uLongf len = compressBound(static_cast<uLong>(in.size()));
-    std::string out(len, '\0');
-    REQUIRE(compress(reinterpret_cast<Bytef*>(out.data()), &len, reinterpret_cast<const Bytef*>(in.data()),
-                     static_cast<uLong>(in.size())) == Z_OK);
-    out.resize(len);
-    return out;
-}
-
-inline std::string gzip(const std::string& in) {
-    z_stream zs{};
-    REQUIRE(deflateInit2(&zs, 6, Z_DEFLATED, 16 + MAX_WBITS, 8, Z_DEFAULT_STRATEGY) == Z_OK);
-    std::string out(deflateBound(&zs, static_cast<uLong>(in.size())) + 64, '\0');
-    zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in.data()));
-    zs.avail_in = static_cast<uInt>(in.size());
-    zs.next_out = reinterpret_cast<Bytef*>(out.data());
-    zs.avail_out = static_cast<uInt>(out.size());
-    REQUIRE(deflate(&zs, Z_FINISH) == Z_STREAM_END);
-    out.resize(zs.total_out);
-    deflateEnd(&zs);
-    return out;
 }
 
 /// A point attribute as a test writes it.

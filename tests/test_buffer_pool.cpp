@@ -13,6 +13,8 @@
 
 using namespace trilevel;
 
+using trilevel::test::same_mesh;
+
 namespace {
 
 /// A runtime of its own with an empty pool and no budget beyond the device's.
@@ -28,11 +30,6 @@ Params with_radius(float r, Mode mode = Mode::Adaptive) {
     p.particle_radius = r;
     p.mode = mode;
     return p;
-}
-
-bool same_mesh(const Mesh& a, const Mesh& b) {
-    return a.positions == b.positions && a.triangles == b.triangles && a.vertex_level == b.vertex_level &&
-           a.triangle_kind == b.triangle_kind;
 }
 
 }  // namespace

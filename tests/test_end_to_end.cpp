@@ -16,6 +16,8 @@
 using namespace trilevel;
 using trilevel::test::signed_volume;
 
+using trilevel::test::same_mesh;
+
 namespace {
 
 /// One Reconstructor for the whole suite (kernels compiled once); every use is a single frame, so
@@ -32,11 +34,6 @@ Params params(float r, Mode mode, float cell = 1.0f) {
     p.mode = mode;
     p.cell = cell;
     return p;
-}
-
-bool same_mesh(const Mesh& a, const Mesh& b) {
-    return a.positions == b.positions && a.triangles == b.triangles && a.vertex_level == b.vertex_level &&
-           a.triangle_kind == b.triangle_kind;
 }
 
 void require_closed(const Mesh& m, const std::string& what) {

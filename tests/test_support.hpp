@@ -8,6 +8,8 @@
 
 #include <catch2/catch.hpp>
 
+#include "trilevel/trilevel.hpp"
+
 namespace trilevel::test {
 
 /// ../shared/data beside the checkout, or empty when absent (tests then SKIP with a message).
@@ -22,6 +24,12 @@ inline std::filesystem::path shared_data_dir() {
         WARN("SKIPPED: ../shared/data is absent beside the checkout; real-frame test skipped"); \
         return;                                                                             \
     }
+
+/// Bit-identical geometry, topology, levels and triangle kinds (the determinism tests).
+inline bool same_mesh(const Mesh& a, const Mesh& b) {
+    return a.positions == b.positions && a.triangles == b.triangles && a.vertex_level == b.vertex_level &&
+           a.triangle_kind == b.triangle_kind;
+}
 
 /// A fresh temporary directory, removed at scope exit.
 struct TempDir {
