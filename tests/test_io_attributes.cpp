@@ -29,11 +29,6 @@ const trilevel::ParticleAttribute& attribute(const ParticleSet& set, const std::
     throw 0;
 }
 
-/// Bit-exact comparison (NaN-safe, -0 distinct from 0).
-bool same_bits(const std::vector<float>& a, const std::vector<float>& b) {
-    return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0);
-}
-
 void require_attribute(const ParticleSet& set, const TestAttribute& expected) {
     INFO("attribute " << expected.name);
     const auto& a = attribute(set, expected.name);

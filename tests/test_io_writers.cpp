@@ -7,6 +7,7 @@
 #include "trilevel/io.hpp"
 
 using trilevel::test::TempDir;
+using trilevel::test::same_bits;
 
 namespace {
 
@@ -25,10 +26,6 @@ trilevel::Mesh small_mesh() {
     m.vertex_level = {2, 2, 2, 2, 3, 3, 3, 2};
     m.triangle_kind.assign(8, trilevel::TriangleKind::Level2);
     return m;
-}
-
-bool same_bits(const std::vector<float>& a, const std::vector<float>& b) {
-    return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0);
 }
 
 std::vector<std::string> names_in(const std::filesystem::path& dir) {

@@ -9,12 +9,9 @@
 
 using namespace trilevel;
 
-namespace {
+using trilevel::test::same_mesh;
 
-bool same_mesh(const Mesh& a, const Mesh& b) {
-    return a.positions == b.positions && a.triangles == b.triangles && a.vertex_level == b.vertex_level &&
-           a.triangle_kind == b.triangle_kind;
-}
+namespace {
 
 Params adaptive(float r, float hysteresis) {
     Params p;

@@ -9,6 +9,7 @@
 #include <thread>
 #include <vector>
 
+#include "device_test_support.hpp"
 #include "opencl_runtime.hpp"
 #include "test_support.hpp"
 #include "trilevel/io.hpp"
@@ -24,6 +25,9 @@ using namespace trilevel;
 #endif
 #endif
 
+using trilevel::test::settled_live_buffers;
+using trilevel::test::settled_unpooled_buffers;
+
 namespace {
 
 /// A field of /proc/self/status in bytes ("VmHWM": peak resident, "VmRSS": resident now).
@@ -33,18 +37,6 @@ std::uint64_t status_bytes(const std::string& field) {
     while (std::getline(in, line))
         if (line.rfind(field + ":", 0) == 0) return std::stoull(line.substr(field.size() + 1)) * 1024;
     return 0;
-}
-
-/// Live device buffers once PoCL has released those used by finished commands (on its own threads)
-/// and `expected` is reached, or after a second.
-std::int64_t settled_live_buffers(std::int64_t expected) {
-    for (int i = 0; i < 200 && live_device_buffers() != expected; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    return live_device_buffers();
-}
-/// Between frames every live buffer is a pooled one: anything else is a leak.
-std::int64_t settled_unpooled_buffers() {
-    settled_live_buffers(pooled_device_buffers());
-    return live_device_buffers() - pooled_device_buffers();
 }
 
 /// Frame f of a generated sequence with a period of 20 frames, so that the first 20 frames hold

@@ -10,12 +10,16 @@
 #include <vector>
 
 #include "mesh_test_support.hpp"
+#include "device_test_support.hpp"
 #include "opencl_runtime.hpp"
 #include "test_support.hpp"
 #include "trilevel/io.hpp"
 #include "trilevel/trilevel.hpp"
 
 using namespace trilevel;
+
+using trilevel::test::same_mesh;
+using trilevel::test::settled_unpooled_buffers;
 
 namespace {
 
@@ -36,20 +40,6 @@ struct ScopedEnv {
     ScopedEnv(const char* n, const char* value) : name(n) { ::setenv(n, value, 1); }
     ~ScopedEnv() { ::unsetenv(name.c_str()); }
 };
-
-/// Device buffers alive once PoCL has finished releasing: it frees a buffer that queued commands
-/// used on its own threads, shortly after the last command is done.
-/// Between frames every live buffer belongs to a buffer pool; the rest are leaks.
-std::int64_t settled_unpooled_buffers() {
-    for (int i = 0; i < 200 && live_device_buffers() != pooled_device_buffers(); ++i)
-        std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    return live_device_buffers() - pooled_device_buffers();
-}
-
-bool same_mesh(const Mesh& a, const Mesh& b) {
-    return a.positions == b.positions && a.triangles == b.triangles && a.vertex_level == b.vertex_level &&
-           a.triangle_kind == b.triangle_kind;
-}
 
 void require_closed_nonempty(const Mesh& m, const char* what) {
     INFO(what << ": " << m.triangle_count() << " triangles");

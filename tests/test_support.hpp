@@ -1,8 +1,10 @@
 // Helpers shared by the tests: where ../shared is, temporary files.
 #pragma once
 
+#include <cstring>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include <unistd.h>
 
@@ -25,10 +27,21 @@ inline std::filesystem::path shared_data_dir() {
         return;                                                                             \
     }
 
-/// Bit-identical geometry, topology, levels and triangle kinds (the determinism tests).
+/// The same floats bit for bit (NaN payloads and the sign of zero included).
+inline bool same_bits(const std::vector<float>& a, const std::vector<float>& b) {
+    return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0);
+}
+
+/// Bit-identical meshes (the determinism tests): geometry, topology, levels, triangle kinds,
+/// normals and vertex attributes.
 inline bool same_mesh(const Mesh& a, const Mesh& b) {
-    return a.positions == b.positions && a.triangles == b.triangles && a.vertex_level == b.vertex_level &&
-           a.triangle_kind == b.triangle_kind;
+    if (a.attributes.size() != b.attributes.size()) return false;
+    for (std::size_t i = 0; i < a.attributes.size(); ++i)
+        if (a.attributes[i].name != b.attributes[i].name || a.attributes[i].components != b.attributes[i].components ||
+            !same_bits(a.attributes[i].values, b.attributes[i].values))
+            return false;
+    return same_bits(a.positions, b.positions) && a.triangles == b.triangles && a.vertex_level == b.vertex_level &&
+           a.triangle_kind == b.triangle_kind && same_bits(a.normals, b.normals);
 }
 
 /// A fresh temporary directory, removed at scope exit.

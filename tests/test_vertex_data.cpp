@@ -18,6 +18,10 @@
 using namespace trilevel;
 using trilevel::test::TempDir;
 
+using trilevel::test::same_mesh;
+
+using trilevel::test::same_bits;
+
 namespace {
 
 Reconstructor& reconstructor() {
@@ -53,20 +57,6 @@ void require_unit(const std::vector<float>& n) {
         INFO("vertex " << v);
         REQUIRE(glm::length(at(n, v)) == Approx(1.0).margin(1e-6));
     }
-}
-
-bool same_bits(const std::vector<float>& a, const std::vector<float>& b) {
-    return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0);
-}
-
-bool same_mesh(const Mesh& a, const Mesh& b) {
-    if (a.attributes.size() != b.attributes.size()) return false;
-    for (std::size_t i = 0; i < a.attributes.size(); ++i)
-        if (a.attributes[i].name != b.attributes[i].name || a.attributes[i].components != b.attributes[i].components ||
-            !same_bits(a.attributes[i].values, b.attributes[i].values))
-            return false;
-    return same_bits(a.positions, b.positions) && a.triangles == b.triangles && a.vertex_level == b.vertex_level &&
-           a.triangle_kind == b.triangle_kind && same_bits(a.normals, b.normals);
 }
 
 /// A velocity that is an affine function of position, u(x) = M x + b.
