@@ -1,6 +1,7 @@
 // Writes the seed corpora of the fuzz targets: small valid files of every format and encoding the
 // readers accept, made with trilevel's own writers and scene generator where they cover the case
-// and built by hand where they do not (VTU encodings, ASCII and big-endian variants, BGEO).
+// and built by hand where they do not (VTU encodings, ASCII and big-endian variants, BGEO), the
+// VTU, BGEO and PLY ones with the reader tests' generators (tests/io_test_files.hpp).
 //   trilevel_fuzz_corpus OUTDIR   ->  OUTDIR/corpus-{vtk,vtu,bgeo,ply,xyz,mesh}/
 // Seeds stay small (a few to a few hundred particles) so that each run of a target is fast.
 #include <algorithm>
@@ -14,17 +15,18 @@
 #include <string>
 #include <vector>
 
-#include <zlib.h>
-
-#include "../tests/encodings.hpp"
+#include "../tests/io_test_files.hpp"
 #include "trilevel/io.hpp"
 
 namespace fs = std::filesystem;
 using trilevel::Mesh;
 using trilevel::ParticleSet;
-using trilevel::test::b64;
+using trilevel::test::bgeo_file;
 using trilevel::test::gzip;
-using trilevel::test::zcompress;
+using trilevel::test::ply_file;
+using trilevel::test::TestAttribute;
+using trilevel::test::vtu_data_array;
+using trilevel::test::VtuVariant;
 
 namespace {
 
@@ -132,51 +134,18 @@ void vtk_seeds(const std::vector<float>& pts) {
 
 // ---- VTU ----------------------------------------------------------------------------------------
 
-struct VtuVariant {
-    std::string name, format;  // format: ascii, binary, appended
-    bool zlib = false, joint = false, base64_appended = false, u32 = false, big = false, f32 = false;
-};
-
 /// A VTU file holding pts in two pieces, with density (ascii) and velocity (stored like the
-/// points) point data, stored as the variant says (zlib blocks of 64 bytes).
-std::string make_vtu(const std::vector<float>& pts, const VtuVariant& v) {
+/// points) point data, stored as the variant says.
+std::string two_piece_vtu(const std::vector<float>& pts, const VtuVariant& v) {
     const std::size_t half = pts.size() / 6 * 3;
     const std::vector<float> parts[2] = {{pts.begin(), pts.begin() + half}, {pts.begin() + half, pts.end()}};
-    auto word = [&](std::uint64_t w) { return v.u32 ? bytes_of(std::uint32_t(w), v.big) : bytes_of(w, v.big); };
     std::string pieces, appended;
-    // the rest of a <DataArray ...> tag holding `values`: inline text or an offset into `appended`
-    auto array_body = [&](const std::vector<float>& values) {
-        std::string raw;
-        for (float p : values) raw += v.f32 ? bytes_of(p, v.big) : bytes_of(double(p), v.big);
-        std::string header, payload;
-        if (v.zlib) {
-            const std::size_t bs = 64, nb = (raw.size() + bs - 1) / bs;
-            header = word(nb) + word(bs) + word(nb ? raw.size() - (nb - 1) * bs : 0);
-            for (std::size_t b = 0; b < nb; ++b) {
-                const std::string c = zcompress(raw.substr(b * bs, bs));
-                header += word(c.size());
-                payload += c;
-            }
-        } else {
-            header = word(raw.size());
-            payload = raw;
-        }
-        if (v.format == "ascii") return ">\n" + vtk_text_values(values) + "</DataArray>";
-        const std::string enc = v.joint ? b64(header + payload) : b64(header) + b64(payload);
-        if (v.format == "binary") return ">\n  " + enc + "\n</DataArray>";
-        const std::string offset = " offset=\"" + std::to_string(appended.size()) + "\"/>";
-        appended += v.base64_appended ? enc : header + payload;
-        return offset;
-    };
-    const std::string type = std::string(" type=\"") + (v.f32 ? "Float32" : "Float64") + "\"";
-    const std::string format = " format=\"" + v.format + "\"";
     for (const auto& part : parts) {
         const std::size_t n = part.size() / 3;
         pieces += "<Piece NumberOfPoints=\"" + std::to_string(n) + "\" NumberOfCells=\"0\">\n<PointData>\n"
-                  "<DataArray type=\"Float32\" Name=\"density\" format=\"ascii\">" + vtk_text_values(densities(n)) + "</DataArray>\n"
-                  "<DataArray" + type + " Name=\"velocity\" NumberOfComponents=\"3\"" + format + array_body(velocities(n)) + "\n"
-                  "</PointData>\n<Points>\n<DataArray" + type + " Name=\"Points\" NumberOfComponents=\"3\"" + format +
-                  array_body(part) + "\n</Points>\n</Piece>\n";
+                  "<DataArray type=\"Float32\" Name=\"density\" format=\"ascii\">" + vtk_text_values(densities(n)) + "</DataArray>\n" +
+                  vtu_data_array("velocity", 3, velocities(n), v, appended) + "\n</PointData>\n<Points>\n" +
+                  vtu_data_array("Points", 3, part, v, appended) + "\n</Points>\n</Piece>\n";
     }
     std::string s = "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"" +
                     std::string(v.big ? "BigEndian" : "LittleEndian") + "\" header_type=\"" + (v.u32 ? "UInt32" : "UInt64") + "\"" +
@@ -204,30 +173,10 @@ void vtu_seeds(const std::vector<float>& pts) {
         {"appended-base64-zlib", "appended", true, false, true},
         {"appended-base64-zlib-joint-big", "appended", true, true, true, false, true},
     };
-    for (const auto& v : variants) put("vtu", v.name + ".vtu", make_vtu(pts, v));
+    for (const auto& v : variants) put("vtu", v.name + ".vtu", two_piece_vtu(pts, v));
 }
 
 // ---- BGEO ---------------------------------------------------------------------------------------
-
-std::string bgeo_file(const std::vector<float>& pts, bool with_attributes) {
-    auto i32 = [](std::int32_t v) { return bytes_of(v, true); };
-    auto u16 = [](std::uint16_t v) { return bytes_of(v, true); };
-    const auto n = static_cast<std::int32_t>(pts.size() / 3);
-    std::string s = "BgeoV" + i32(5) + i32(n) + i32(0) + i32(0) + i32(0) + i32(with_attributes ? 4 : 0) + i32(0) + i32(0) + i32(0);
-    if (with_attributes) {
-        s += u16(2) + "id" + u16(1) + i32(1) + i32(0);                                        // int
-        s += u16(8) + "velocity" + u16(3) + i32(5) + i32(0) + i32(0) + i32(0);                // vector
-        s += u16(4) + "kind" + u16(1) + i32(4) + i32(2) + u16(5) + "water" + u16(3) + "air";  // indexed string
-        s += u16(7) + "density" + u16(1) + i32(0) + i32(0);                                     // float
-    }
-    for (std::int32_t i = 0; i < n; ++i) {
-        for (int k = 0; k < 3; ++k) s += bytes_of(pts[3 * i + k], true);
-        s += bytes_of(1.0f, true);
-        if (with_attributes)
-            s += i32(i) + bytes_of(0.5f, true) + bytes_of(-0.5f, true) + bytes_of(2.0f, true) + i32(i % 2) + bytes_of(1000.0f + i, true);
-    }
-    return s + std::string("\x00\xff", 2);
-}
 
 void bgeo_seeds(const std::vector<float>& pts) {
     put("bgeo", "plain.bgeo", bgeo_file(pts, false));
@@ -240,38 +189,18 @@ void bgeo_seeds(const std::vector<float>& pts) {
 
 // ---- PLY ----------------------------------------------------------------------------------------
 
-/// PLY with a leading element, extra and list properties in the vertex, and shuffled x, y, z.
-std::string ply_file(const std::vector<float>& pts, const std::string& format, bool doubles) {
-    const std::size_t n = pts.size() / 3;
-    const std::string t = doubles ? "double" : "float";
-    std::string s = "ply\nformat " + format + " 1.0\ncomment seed\nobj_info trilevel\nelement camera 1\nproperty float fov\n"
-                    "property list uchar int ids\nelement vertex " + std::to_string(n) + "\nproperty uchar flag\nproperty " + t +
-                    " z\nproperty " + t + " x\nproperty list uchar float extra\nproperty " + t + " y\nproperty float density\n"
-                    "property float velocity_x\nproperty float velocity_y\nproperty float velocity_z\nelement face 0\n"
-                    "property list uchar int vertex_indices\nend_header\n";
-    const bool ascii = format == "ascii", big = format == "binary_big_endian";
-    auto num = [&](auto v) { return ascii ? num_text(double(v)) + " " : bytes_of(v, big); };
-    s += num(45.0f) + num(std::uint8_t(2)) + num(std::int32_t(7)) + num(std::int32_t(8)) + (ascii ? "\n" : "");
-    for (std::size_t i = 0; i < n; ++i) {
-        const float x = pts[3 * i], y = pts[3 * i + 1], z = pts[3 * i + 2];
-        s += num(std::uint8_t(1)) + (doubles ? num(double(z)) + num(double(x)) : num(z) + num(x));
-        s += num(std::uint8_t(i % 3));
-        for (std::size_t k = 0; k < i % 3; ++k) s += num(0.5f);
-        s += doubles ? num(double(y)) : num(y);
-        s += num(1000.0f + i) + num(0.5f) + num(-0.25f) + num(float(i)) + (ascii ? "\n" : "");
-    }
-    return s;
-}
-
 void ply_seeds(const std::vector<float>& pts) {
+    // trilevel::test::ply_file: a leading element, extra and list vertex properties, shuffled x, y, z,
+    // then density and velocity_x/_y/_z
+    const std::vector<TestAttribute> attrs = {{"density", 1, densities(pts.size() / 3)}, {"velocity", 3, velocities(pts.size() / 3)}};
     ParticleSet set;
     set.positions = pts;
     put_written("ply", "written-binary-le.ply", set);
-    put("ply", "ascii-float.ply", ply_file(pts, "ascii", false));
-    put("ply", "ascii-double.ply", ply_file(pts, "ascii", true));
-    put("ply", "binary-le-double.ply", ply_file(pts, "binary_little_endian", true));
-    put("ply", "binary-be-float.ply", ply_file(pts, "binary_big_endian", false));
-    put("ply", "binary-be-double.ply", ply_file(pts, "binary_big_endian", true));
+    put("ply", "ascii-float.ply", ply_file(pts, "ascii", false, attrs));
+    put("ply", "ascii-double.ply", ply_file(pts, "ascii", true, attrs));
+    put("ply", "binary-le-double.ply", ply_file(pts, "binary_little_endian", true, attrs));
+    put("ply", "binary-be-float.ply", ply_file(pts, "binary_big_endian", false, attrs));
+    put("ply", "binary-be-double.ply", ply_file(pts, "binary_big_endian", true, attrs));
     std::string ints = "ply\r\nformat binary_little_endian 1.0\r\nelement vertex 2\r\nproperty short x\r\nproperty int y\r\n"
                        "property uint8 z\r\nend_header\r\n";
     for (int i = 0; i < 2; ++i) ints += bytes_of(std::int16_t(-3 * i), false) + bytes_of(std::int32_t(70000), false) + bytes_of(std::uint8_t(9), false);
@@ -374,7 +303,7 @@ int main(int argc, char** argv) {
         set.positions = more;
         put_written("vtk", "written-200.vtk", set);
         put_written("ply", "written-200.ply", set);
-        put("vtu", "appended-raw-zlib-200.vtu", make_vtu(more, {"", "appended", true}));
+        put("vtu", "appended-raw-zlib-200.vtu", two_piece_vtu(more, {"", "appended", true}));
         put("bgeo", "gzip-200.bgeo", gzip(bgeo_file(more, true)));
         check_seeds();
     } catch (const std::exception& e) {

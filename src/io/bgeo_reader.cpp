@@ -147,8 +147,6 @@ void read_attributes(const std::string& path, const char* base, std::size_t n, s
         if (index < 0) continue;
         const std::string where = "offset " + std::to_string(a.at);
         if (a.type == 4) fail(path, where + ": attribute '" + a.name + "' holds strings, expected numbers");
-        if (a.size != 1 && a.size != 3)
-            fail(path, where + ": attribute '" + a.name + "' has " + std::to_string(a.size) + " components, expected 1 or 3");
         std::vector<float> v(n * a.size);
         for (std::size_t i = 0; i < n; ++i)
             for (std::size_t k = 0; k < a.size; ++k) {

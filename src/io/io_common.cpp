@@ -6,7 +6,6 @@
 #include <charconv>
 #include <cmath>
 #include <filesystem>
-#include <limits>
 
 #include <csignal>
 #include <cstdlib>
@@ -78,7 +77,7 @@ void check_finite(const std::string& path, const std::vector<float>& xyz, const 
 }
 
 float to_float_checked(const std::string& path, double v, std::size_t value_index, const std::string& where) {
-    if (!std::isfinite(v) || std::fabs(v) > std::numeric_limits<float>::max())
+    if (!finite_float(v))
         fail(path, where + "particle " + std::to_string(value_index / 3) +
                        ": coordinate is not a finite float (NaN, Inf or out of range)");
     return static_cast<float>(v);

@@ -2,6 +2,7 @@
 // reads, endian-aware loads, number parsing and atomic (temp + rename) buffered writes.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
@@ -34,6 +35,9 @@ struct ArrayLocation {
     std::string label;
     std::string at(std::size_t value_index, std::size_t value_size) const;  ///< "offset N: " or "label: " or ""
 };
+
+/// Whether a double read from a file is a finite value that fits a float (a coordinate).
+inline bool finite_float(double v) { return std::isfinite(v) && std::fabs(v) <= 3.4028234663852886e38; }
 
 /// Error naming the first non-finite coordinate.
 void check_finite(const std::string& path, const std::vector<float>& xyz, const ArrayLocation& where = {});

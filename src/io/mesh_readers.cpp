@@ -20,10 +20,8 @@ std::string number_text(double v) {
     return buf;
 }
 
-void add_polygon(const std::string& path, const std::string& where, const std::vector<std::int64_t>& idx, Mesh& mesh) {
-    for (std::int64_t v : idx)
-        if (v < 0 || static_cast<std::uint64_t>(v) >= mesh.vertex_count())
-            fail(path, where + ": vertex index " + std::to_string(v) + " out of range");
+/// Fan-triangulates a polygon whose indices the caller has range-checked.
+void add_polygon(const std::vector<std::int64_t>& idx, Mesh& mesh) {
     for (std::size_t j = 1; j + 1 < idx.size(); ++j)
         for (std::size_t c : {std::size_t(0), j, j + 1}) mesh.triangles.push_back(static_cast<std::uint32_t>(idx[c]));
 }
@@ -108,7 +106,7 @@ void read_ply_faces(const std::string& path, PlyValueReader& r, const PlyElement
                     fail(path, where + ": vertex index " + number_text(x) + " out of range");
                 v = static_cast<std::int64_t>(x);
             }
-            add_polygon(path, where, idx, mesh);
+            add_polygon(idx, mesh);
         }
 }
 
@@ -167,7 +165,7 @@ Mesh read_obj_mesh(const std::string& path, const std::string& data) {
             idx.clear();
             for (std::size_t k = 1; k < t.size(); ++k) idx.push_back(obj_index(path, line, t[k], mesh.vertex_count()));
             if (idx.size() < 3) fail(path, at + ": a face needs at least 3 vertices");
-            add_polygon(path, at, idx, mesh);
+            add_polygon(idx, mesh);
         }
     }
     if (normals.size() == mesh.positions.size()) mesh.normals = std::move(normals);

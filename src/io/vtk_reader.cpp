@@ -162,7 +162,7 @@ private:
             if (tok.empty()) error("truncated ASCII data: found " + std::to_string(i) + " of " + std::to_string(count) + " values");
             double v;
             if (!parse_double(tok, v)) error("malformed number '" + std::string(tok.substr(0, 40)) + "'");
-            if (finite_only && (!std::isfinite(v) || std::fabs(v) > 3.4028234663852886e38))
+            if (finite_only && !finite_float(v))
                 error("particle " + std::to_string(i / 3) + ": non-finite coordinate '" + std::string(tok.substr(0, 40)) + "'");
             out[i] = narrow_to_float(v);
         }
