@@ -384,6 +384,7 @@ Mesh Reconstructor::Impl::domain(const float* xyz, std::size_t n, const Params& 
     const auto groups = split_domain(xyz, n, separation, tile);
     Mesh mesh;
     std::vector<float> part;
+    bool closed = true;  // the groups' meshes share no vertex: the union is closed when each is
     for (const auto& members : groups) {
         history.reset();  // each group has a lattice of its own: no level history across them
         part.resize(3 * members.size());
@@ -395,11 +396,12 @@ Mesh Reconstructor::Impl::domain(const float* xyz, std::size_t n, const Params& 
         Stats gs;
         append(mesh, run(part.data(), members.size(), p, gg, gs));
         accumulate(s, gs);
+        closed = closed && gs.closed;
     }
     history.reset();
     s.particles = n;
     count_mesh(mesh, s);
-    s.closed = is_closed_and_oriented(mesh);
+    s.closed = closed;
     s.peak_memory_bytes = peak_rss_bytes();
     return mesh;
 }
