@@ -34,7 +34,7 @@ using Clock = std::chrono::steady_clock;
 /// Appends the wall time of each stage to Stats::time_ms.
 class StageTimer {
 public:
-    explicit StageTimer(Stats& s) : stats_(s), start_(Clock::now()), last_(start_) {}
+    explicit StageTimer(Stats& s) : stats_(s), last_(Clock::now()) {}
     void stage(const char* name) {
         auto now = Clock::now();
         stats_.time_ms.emplace_back(name, std::chrono::duration<double, std::milli>(now - last_).count());
@@ -44,7 +44,7 @@ public:
 
 private:
     Stats& stats_;
-    Clock::time_point start_, last_;
+    Clock::time_point last_;
 };
 
 void require_positive(float v, const char* name, const char* why) {
