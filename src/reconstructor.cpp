@@ -439,7 +439,6 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     if (g.forced_level == 0)
         s.level_held = history.apply(sc.cells, sc.curvature, sc.splash, g.coarse_base, threshold, p.level_hysteresis);
     classes = ParticleClasses{};  // memory follows the surface from here on (DESIGN §4)
-    sc.particle_kappa = {};
     timer.stage("surface_cells");
 
     std::vector<CoarseCell> cells = sc.cells;
