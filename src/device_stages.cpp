@@ -185,7 +185,7 @@ void cell_curvature_levels(OpenCLRuntime& rt, const BinnedParticles& b, const Pa
 }  // namespace
 
 SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& b, const ParticleClasses& c, float r, float R,
-                           float coarse_edge, float threshold, int forced_level) {
+                           float coarse_edge, float threshold, int forced_level, bool read_particle_kappa) {
     const cl_uint n = cl_uint(b.count);
     const float inv_coarse = 1.0f / coarse_edge;
     const float half_box = constants::kSurfaceBoxHalf * r;
@@ -206,7 +206,7 @@ SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& b, const Pa
     if (forced_level == 0) {
         cell_kappa = rt.buffer(cap * sizeof(cl_float), "coarse cell curvature");
         cell_curvature_levels(rt, b, c, cells, flags, R, inv_coarse, threshold, level, cell_kappa, kappa);
-        out.particle_kappa = read_buffer<float>(rt, kappa, n);
+        if (read_particle_kappa) out.particle_kappa = read_buffer<float>(rt, kappa, n);
     }
     auto keys = read_buffer<cl_ulong>(rt, cells.keys, cap);
     auto fl = read_buffer<cl_uint>(rt, flags, cap);

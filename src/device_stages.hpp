@@ -51,11 +51,14 @@ struct SurfaceCells {
     std::vector<CoarseCell> cells;
     std::vector<float> curvature;      ///< per cell (adaptive mode; paper eq. 3)
     std::vector<std::uint8_t> splash;  ///< per cell: within R of a splash particle
-    std::vector<float> particle_kappa; ///< per sorted particle (adaptive mode; paper eq. 1)
+    std::vector<float> particle_kappa; ///< per sorted particle (adaptive mode, when asked for; paper eq. 1)
 };
 /// `forced_level` 2 or 3 assigns that level to every cell (uniform modes, no curvature pass).
+/// `read_particle_kappa`: also copy the per-particle curvature to the host (tests; the pipeline
+/// needs only the cells).
 SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& bins, const ParticleClasses& classes,
-                           float r, float R, float coarse_edge, float threshold, int forced_level);
+                           float r, float R, float coarse_edge, float threshold, int forced_level,
+                           bool read_particle_kappa = false);
 
 /// Stages 5-6: the fine lattice points and their scalar values.
 struct FinePoints {

@@ -89,13 +89,9 @@ int choose_device(int requested, const std::vector<cl::Device>& devices) {
     return 0;
 }
 
-std::atomic<std::int64_t> g_live_buffers{0}, g_live_bytes{0}, g_allocations{0};
+std::atomic<std::int64_t> g_live_buffers{0}, g_allocations{0};
 
-void CL_CALLBACK buffer_released(cl_mem, void* bytes) {
-    g_live_buffers.fetch_sub(1, std::memory_order_relaxed);
-    g_live_bytes.fetch_sub(std::int64_t(reinterpret_cast<std::uintptr_t>(bytes)), std::memory_order_relaxed);
-}
-
+void CL_CALLBACK buffer_released(cl_mem, void*) { g_live_buffers.fetch_sub(1, std::memory_order_relaxed); }
 
 std::string mib(std::uint64_t bytes) {
     char buf[32];
@@ -299,12 +295,8 @@ cl::Buffer OpenCLRuntime::allocate(BufferPool::Entry& e, std::size_t bytes, cons
             cl::Buffer b(context_, e.flags, bytes);
             g_allocations.fetch_add(1, std::memory_order_relaxed);
             g_live_buffers.fetch_add(1, std::memory_order_relaxed);
-            g_live_bytes.fetch_add(std::int64_t(bytes), std::memory_order_relaxed);
-            if (clSetMemObjectDestructorCallback(b(), buffer_released, reinterpret_cast<void*>(std::uintptr_t(bytes))) !=
-                CL_SUCCESS) {  // not counted, rather than a false leak
-                g_live_buffers.fetch_sub(1, std::memory_order_relaxed);
-                g_live_bytes.fetch_sub(std::int64_t(bytes), std::memory_order_relaxed);
-            }
+            if (clSetMemObjectDestructorCallback(b(), buffer_released, nullptr) != CL_SUCCESS)
+                g_live_buffers.fetch_sub(1, std::memory_order_relaxed);  // not counted, rather than a false leak
             return b;
         } catch (const cl::Error& e2) {
             // The device's own limit may lie below the budget: free buffers of the pool first.

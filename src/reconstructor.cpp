@@ -34,7 +34,7 @@ using Clock = std::chrono::steady_clock;
 /// Appends the wall time of each stage to Stats::time_ms.
 class StageTimer {
 public:
-    explicit StageTimer(Stats& s) : stats_(s), start_(Clock::now()), last_(start_) {}
+    explicit StageTimer(Stats& s) : stats_(s), last_(Clock::now()) {}
     void stage(const char* name) {
         auto now = Clock::now();
         stats_.time_ms.emplace_back(name, std::chrono::duration<double, std::milli>(now - last_).count());
@@ -44,7 +44,7 @@ public:
 
 private:
     Stats& stats_;
-    Clock::time_point start_, last_;
+    Clock::time_point last_;
 };
 
 void require_positive(float v, const char* name, const char* why) {
@@ -384,6 +384,7 @@ Mesh Reconstructor::Impl::domain(const float* xyz, std::size_t n, const Params& 
     const auto groups = split_domain(xyz, n, separation, tile);
     Mesh mesh;
     std::vector<float> part;
+    bool closed = true;  // the groups' meshes share no vertex: the union is closed when each is
     for (const auto& members : groups) {
         history.reset();  // each group has a lattice of its own: no level history across them
         part.resize(3 * members.size());
@@ -395,11 +396,12 @@ Mesh Reconstructor::Impl::domain(const float* xyz, std::size_t n, const Params& 
         Stats gs;
         append(mesh, run(part.data(), members.size(), p, gg, gs));
         accumulate(s, gs);
+        closed = closed && gs.closed;
     }
     history.reset();
     s.particles = n;
     count_mesh(mesh, s);
-    s.closed = is_closed_and_oriented(mesh);
+    s.closed = closed;
     s.peak_memory_bytes = peak_rss_bytes();
     return mesh;
 }
@@ -437,7 +439,6 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     if (g.forced_level == 0)
         s.level_held = history.apply(sc.cells, sc.curvature, sc.splash, g.coarse_base, threshold, p.level_hysteresis);
     classes = ParticleClasses{};  // memory follows the surface from here on (DESIGN §4)
-    sc.particle_kappa = {};
     timer.stage("surface_cells");
 
     std::vector<CoarseCell> cells = sc.cells;

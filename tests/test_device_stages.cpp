@@ -184,7 +184,7 @@ TEST_CASE("curvature, surface cells and levels match the C++ reference", "[devic
     auto ref_kappa = reference::curvature(x, ref_flags, R);
     for (int forced : {0, 2, 3}) {
         const float threshold = 2.0f;
-        SurfaceCells dev = surface_cells(rt, b, c, r, R, 4 * r, threshold, forced);
+        SurfaceCells dev = surface_cells(rt, b, c, r, R, 4 * r, threshold, forced, true);
         auto ref = reference::surface_cells(x, ref_flags, ref_kappa, glm::vec3(0.0f), r, R, threshold, forced);
         REQUIRE(dev.cells.size() == ref.cells.size());
         for (std::size_t i = 0; i < ref.cells.size(); ++i) {
