@@ -154,8 +154,7 @@ std::vector<FrameJob> select_jobs(const std::string& input, const std::string& o
     std::vector<FrameJob> jobs;
     for (const Frame& f : frames)
         if ((!o.start || f.value >= *o.start) && (!o.end || f.value <= *o.end))
-            jobs.push_back({f, frame_path(input, f.number), frame_path(output, f.number),
-                            stats.empty() ? std::string() : frame_path(stats, f.number)});
+            jobs.push_back({f, frame_path(input, f.number), frame_path(output, f.number), frame_path(stats, f.number)});
     if (jobs.empty())
         throw Error(input + ": no frame in [" + (o.start ? std::to_string(*o.start) : std::string("first")) + ", " +
                     (o.end ? std::to_string(*o.end) : std::string("last")) + "]; the files hold frames " +

@@ -64,4 +64,18 @@ void find_batch(Map& map, const std::uint64_t* keys, std::size_t n, Value** out)
     }
 }
 
+/// Looks up the level-2 lattice points of coarse cell `coord` (every second point, (cs/2+1)^3 of
+/// them, x fastest) with find_batch: `keys` receives their keys, `out` their values.
+template <class Map, class Value>
+void find_level2_points(Map& map, glm::ivec3 coord, int cs, std::vector<std::uint64_t>& keys, std::vector<Value*>& out) {
+    const int m = cs / 2 + 1;
+    const glm::ivec3 base = coord * cs;
+    keys.clear();
+    for (int z = 0; z < m; ++z)
+        for (int y = 0; y < m; ++y)
+            for (int x = 0; x < m; ++x) keys.push_back(lattice::pack(base + 2 * glm::ivec3(x, y, z)));
+    out.resize(keys.size());
+    find_batch(map, keys.data(), keys.size(), out.data());
+}
+
 }  // namespace trilevel

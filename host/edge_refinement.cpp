@@ -24,12 +24,7 @@ bool cell_midpoints(const CoarseCell& cell, int cs, const FinePointMap& field, S
                     std::vector<std::uint64_t>& out) {
     const int m = cs / 2 + 1;  // level-2 points per axis
     const glm::ivec3 base = cell.coord * cs;
-    s.keys.clear();
-    for (int z = 0; z < m; ++z)
-        for (int y = 0; y < m; ++y)
-            for (int x = 0; x < m; ++x) s.keys.push_back(lattice::pack(base + 2 * glm::ivec3(x, y, z)));
-    s.values.resize(s.keys.size());
-    find_batch(field, s.keys.data(), s.keys.size(), s.values.data());
+    find_level2_points(field, cell.coord, cs, s.keys, s.values);
     const int step[3] = {1, m, m * m};
     bool any = false;
     for (int z = 0, i = 0; z < m; ++z)

@@ -102,19 +102,13 @@ void CellFixer::fix(const CoarseCell& cell, Scratch& s) const {
             }
     }
     if (s.points.empty()) return;
-    const glm::ivec3 base = cell.coord * cs_;
-    const int m = cs_ / 2 + 1;
-    s.keys.clear();
-    for (int z = 0; z < m; ++z)
-        for (int y = 0; y < m; ++y)
-            for (int x = 0; x < m; ++x) s.keys.push_back(lattice::pack(base + 2 * glm::ivec3(x, y, z)));
-    s.found.resize(s.keys.size());
-    find_batch(field_, s.keys.data(), s.keys.size(), s.found.data());
+    find_level2_points(field_, cell.coord, cs_, s.keys, s.found);
     s.level2.resize(s.keys.size());
     for (std::size_t i = 0; i < s.keys.size(); ++i) {
         if (!s.found[i]) throw Error("transition continuity: level-2 lattice point missing from the fine point map");
         s.level2[i] = *s.found[i];
     }
+    const glm::ivec3 base = cell.coord * cs_;
     s.keys.clear();
     for (const glm::ivec3& p : s.points) s.keys.push_back(lattice::pack(base + p));
     s.found.resize(s.keys.size());
