@@ -60,7 +60,7 @@ private:
     }
     // Vertex of a level-2 edge from p to p+2e in the face: the unit sub-edge that holds the
     // crossing (DESIGN §7). The midpoint is a level-3 point here, so its stored value (after
-    // continuity) is what level2_midpoint_value gives the surface mesher's level-2 side.
+    // continuity) is what the level-2 midpoint rule gives the surface mesher's level-2 side.
     std::int32_t level2_vertex(glm::ivec3 p, int axis) const {
         glm::ivec3 e{0};
         e[axis] = 1;

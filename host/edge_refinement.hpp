@@ -27,11 +27,9 @@ struct Level2Midpoints {
 Level2Midpoints level2_crossing_midpoints(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
                                           const FinePointMap& field);
 
-/// The value the level-2 vertex rule uses at the midpoint `mid` of a level-2 edge with end values
-/// va, vb: the field's value when present (a refined or continuity point), else the linear mean.
-inline float level2_midpoint_value(const FinePointMap& field, glm::ivec3 mid, float va, float vb) {
-    const float* v = field.find(mid);
-    return v ? *v : lattice::edge_midpoint_value(va, vb);
-}
+// The level-2 midpoint rule (the surface mesher and crack stitching apply it inline, on batched
+// lookups): the value at the midpoint of a level-2 edge with end values va, vb is the field's value
+// when the field holds the point (a refined or continuity point), else
+// lattice::edge_midpoint_value(va, vb).
 
 }  // namespace trilevel
