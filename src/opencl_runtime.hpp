@@ -56,7 +56,11 @@ public:
     /// (the pool may hold more: growth slack, buffers of other roles or frames).
     std::uint64_t peak_lent_bytes() const { return peak_lent_; }
     /// End of a frame: trims pooled buffers that stayed oversized or unused (BufferPool::kTrimFrames).
-    void end_frame() { pool_.end_frame(); }
+    /// The first frame of a runtime keeps only what is on loan: at each stage and before each
+    /// allocation it releases the free buffers, so a single reconstruction holds little more than
+    /// its peak_lent_bytes (a one-file CLI run has nothing to reuse them for). From the second frame on free buffers stay pooled for reuse, so a
+    /// steady sequence allocates nothing after its first frames.
+    void end_frame() { pool_.end_frame(), ++frames_ended_; }
     /// Releases every pooled buffer (buffers still lent go when their DeviceBuffer does).
     void release_buffers() { pool_.clear(); }
     const BufferPool& pool() const { return pool_; }
@@ -92,6 +96,7 @@ private:
     BufferPool pool_;
     std::uint64_t budget_ = 0, peak_lent_ = 0;
     std::uint64_t ram_room_ = 0;      ///< CPU devices: MemAvailable at reset_budget (0: no check)
+    std::uint64_t frames_ended_ = 0;   ///< frames completed by this runtime (end_frame)
     std::uint64_t held_at_reset_ = 0; ///< bytes the pool held at reset_budget
     std::string stage_, fault_stage_;
 };

@@ -153,6 +153,29 @@ TEST_CASE("a Reconstructor reused across scenes of every size gives each scene's
     }
 }
 
+TEST_CASE("a first frame holds only its loans; from the second on a Reconstructor pools its buffers", "[pool][memory]") {
+    // A one-file run has nothing to reuse buffers for: its peak is what it lends at once, not the
+    // sum of every stage's buffers. A sequence pays that sum from its second frame on and then
+    // allocates nothing.
+    const float r = 0.025f;
+    const ParticleSet s = generate_scene("dam-break", r, 5);
+    const std::int64_t pooled_before = pooled_device_bytes();
+    Reconstructor rec;
+    Stats first, second, third;
+    const Mesh m1 = rec.reconstruct(s.positions.data(), s.size(), with_radius(r), &first);
+    const std::int64_t after_first = pooled_device_bytes() - pooled_before;
+    INFO("pooled after frame 1: " << after_first << " bytes; lent at most " << first.device_memory_bytes);
+    CHECK(after_first < std::int64_t(first.device_memory_bytes) / 4);
+    const Mesh m2 = rec.reconstruct(s.positions.data(), s.size(), with_radius(r), &second);
+    CHECK(pooled_device_bytes() - pooled_before >= std::int64_t(second.device_memory_bytes));
+    const std::int64_t a0 = device_buffer_allocations();
+    const Mesh m3 = rec.reconstruct(s.positions.data(), s.size(), with_radius(r), &third);
+    CHECK(device_buffer_allocations() == a0);
+    CHECK(first.device_memory_bytes == second.device_memory_bytes);
+    CHECK(same_mesh(m1, m2));
+    CHECK(same_mesh(m1, m3));
+}
+
 TEST_CASE("a frame's device buffers fit a memory limit of its own device_memory_bytes after larger frames", "[pool][memory]") {
     const float r = 0.025f;
     const ParticleSet big = generate_scene("dam-break", r, 4), small = generate_scene("sphere", r, 4);

@@ -94,7 +94,8 @@ TEST_CASE("long run: 200 frames through one Reconstructor keep memory and OpenCL
             const int period = (f - 1) / 20;
             allocations[period] += device_buffer_allocations() - allocated;
             pool_max[period] = std::max(pool_max[period], pooled_device_bytes() - pooled_before);
-            REQUIRE(pooled_device_bytes() - pooled_before >= std::int64_t(st.device_memory_bytes));
+            if (f > 1)  // a first frame keeps only its loans (OpenCLRuntime::end_frame)
+                REQUIRE(pooled_device_bytes() - pooled_before >= std::int64_t(st.device_memory_bytes));
             if (f == 200) {  // the sequence repeats every 20 frames: frame 200 is frame 20, bit for bit
                 REQUIRE(m.positions == mesh20.positions);
                 REQUIRE(m.triangles == mesh20.triangles);
