@@ -82,7 +82,7 @@ void check_output(const std::string& path, const std::vector<std::string>& exten
 
 struct ReconstructArgs {
     std::string input, output, radius, kernel_radius = "4", mode = "adaptive", cell = "1", threshold, memory,
-        stats, hysteresis;
+        stats, hysteresis, level2_tolerance;
     std::string start, end;  // frame sequences: range of frame numbers
     int device = -1;
     bool color_levels = false, quiet = false, skip_existing = false, drop_invalid = false;
@@ -102,6 +102,11 @@ trilevel::Params make_params(const ReconstructArgs& a) {
     if (std::fabs(q - std::round(q)) > 1e-6 || std::round(q) < 1)
         throw UsageError("cell (--cell) " + a.cell + ": 4/cell must be an integer (e.g. 0.5, 1, 2 or 4)");
     if (!a.threshold.empty()) p.curvature_threshold = positive("curvature threshold (--curvature-threshold)", a.threshold);
+    if (!a.level2_tolerance.empty()) {
+        const double t = parse_number("--level2-tolerance", a.level2_tolerance);
+        if (!(t >= 0 && t < 1e6)) throw UsageError("--level2-tolerance must be >= 0 (in r; 0 = off), got '" + a.level2_tolerance + "'");
+        p.level2_tolerance = static_cast<float>(t);
+    }
     if (!a.memory.empty()) p.memory_limit_bytes = parse_bytes(a.memory);
     p.level_hysteresis = 0.2f;  // sequences (README: 0.2 removes 71% of the level changes); no effect on one file
     if (!a.hysteresis.empty()) {
@@ -378,6 +383,9 @@ int run(int argc, char** argv) {
     rec->add_option("--mode", ra.mode, "adaptive (default) or uniform");
     rec->add_option("--cell", ra.cell, "Uniform mode cell size in r; 4/cell must be an integer (default 1)");
     rec->add_option("--curvature-threshold", ra.threshold, "Adaptive mode level-3 threshold (default: calibrated)");
+    rec->add_option("--level2-tolerance", ra.level2_tolerance,
+                    "Adaptive mode: also refine level-2 cells whose lattice misses the field at a cube centre by more "
+                    "than this many r (default 0 = off; 0.5 with --curvature-threshold 8 for resampled particles)");
     rec->add_option("--device", ra.device, "OpenCL device index (see `trilevel devices`)");
     rec->add_option("--stats", ra.stats, "Write statistics as JSON");
     rec->add_flag("--color-levels", ra.color_levels, "PLY: colour vertices by level (green 2, blue 3)");

@@ -15,6 +15,7 @@
 #include "device_stages.hpp"
 #include "domain_split.hpp"
 #include "edge_refinement.hpp"
+#include "level2_check.hpp"
 #include "level_history.hpp"
 #include "opencl_runtime.hpp"
 #include "stage_constants.hpp"
@@ -71,6 +72,8 @@ void validate(const Params& p) {
     }
     if (p.normals != NormalMode::None && p.normals != NormalMode::Gradient && p.normals != NormalMode::Area)
         throw Error("normals must be NormalMode::None, Gradient or Area");
+    if (!(std::isfinite(p.level2_tolerance) && p.level2_tolerance >= 0.0f))
+        throw Error("level-2 tolerance must be finite and >= 0 (in r; 0 = off), got " + std::to_string(p.level2_tolerance));
     if (p.mode == Mode::Adaptive && p.curvature_threshold != 0.0f && !(std::isfinite(p.curvature_threshold) && p.curvature_threshold > 0.0f))
         throw Error("curvature threshold must be finite and > 0, got " + std::to_string(p.curvature_threshold));
     if (!(p.level_hysteresis >= 0.0f && p.level_hysteresis < 1.0f))
@@ -184,17 +187,44 @@ void count_mesh(const Mesh& m, Stats& s) {
     }
 }
 
+/// The level-2 check (host/level2_check.hpp) on freshly evaluated cells, before continuity: the
+/// level-2 cells that fail it become level 3 and get their remaining points. Returns how many.
+std::size_t promote_failing_cells(OpenCLRuntime& rt, FinePoints& points, std::vector<CoarseCell>& cells,
+                                  const LatticeFrame& frame, const BinnedParticles& bins, float r, float R,
+                                  float tolerance) {
+    std::vector<CoarseCell> level2;
+    for (const auto& c : cells)
+        if (c.level == 2) level2.push_back(c);
+    insert_and_evaluate(rt, points, level2_check_points(cells, frame), level2, frame, bins, r, R);
+    std::vector<std::size_t> failing;
+    {
+        const FinePointMap field = map_fine_points(rt, points);
+        failing = cells_failing_level2_check(cells, frame, field, tolerance);
+    }
+    unmap_fine_points(rt, points);
+    std::vector<CoarseCell> promoted;
+    for (std::size_t i : failing) {
+        cells[i].level = 3;
+        promoted.push_back(cells[i]);
+    }
+    refine_and_evaluate(rt, points, promoted, frame, bins, r, R);
+    return promoted.size();
+}
+
 /// Stages 5-8 until the band is closed (DESIGN §7): refine and evaluate the new cells, apply
 /// transition continuity, find the faces the surface leaves through, add those neighbours and
 /// repeat. Returns a view of the mapped fine-point table; `cells` gains the added cells.
 FinePointMap close_band(OpenCLRuntime& rt, FinePoints& points, std::vector<CoarseCell>& cells,
-                        const LatticeFrame& frame, const BinnedParticles& bins, float r, float R, Stats& s) {
+                        const LatticeFrame& frame, const BinnedParticles& bins, float r, float R,
+                        float level2_tolerance, Stats& s) {
     std::vector<CoarseCell> fresh = cells;
     double t_field = 0, t_closure = 0;
-    for (;;) {
+    for (bool first = true;; first = false) {
         auto t0 = Clock::now();
         rt.set_stage("scalar_field");
         refine_and_evaluate(rt, points, fresh, frame, bins, r, R);
+        if (first && level2_tolerance > 0.0f)
+            s.level2_check_cells = promote_failing_cells(rt, points, cells, frame, bins, r, R, level2_tolerance);
         FinePointMap field = map_fine_points(rt, points);
         auto t1 = Clock::now();
         rt.set_stage("band_closure");
@@ -320,6 +350,7 @@ void accumulate(Stats& into, const Stats& s) {
     into.surface_cells_level3 += s.surface_cells_level3;
     into.splash_cells += s.splash_cells;
     into.band_closure_cells += s.band_closure_cells;
+    into.level2_check_cells += s.level2_check_cells;
     into.fine_points += s.fine_points;
     into.fine_points_level2 += s.fine_points_level2;
     into.fine_points_level3 += s.fine_points_level3;
@@ -446,7 +477,8 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     UnmapOnFailure unmap_guard{rt, points};
     Mesh mesh;
     if (!cells.empty()) {  // particles without surface (none can be: a safety net) give an empty mesh
-        FinePointMap field = close_band(rt, points, cells, g.frame, bins, r, R, s);
+        const float tolerance = g.forced_level == 0 ? p.level2_tolerance * r : 0.0f;  // 0: off
+        FinePointMap field = close_band(rt, points, cells, g.frame, bins, r, R, tolerance, s);
         timer.restart();  // close_band recorded its own two entries
         rt.set_stage("edge_refinement");
         refine_level2_edges(rt, points, field, cells, g.frame, bins, r, R);

@@ -14,6 +14,7 @@ std::string stats_to_json(const Stats& s, const Params& p) {
     j["surface_cells_by_level"] = {{"2", s.surface_cells_level2}, {"3", s.surface_cells_level3}};
     j["splash_cells"] = s.splash_cells;
     j["band_closure_cells"] = s.band_closure_cells;
+    j["level2_check_cells"] = s.level2_check_cells;
     j["fine_points"] = s.fine_points;
     j["fine_points_by_level"] = {{"2", s.fine_points_level2}, {"3", s.fine_points_level3}};
     j["vertices"] = s.vertices;
@@ -40,6 +41,7 @@ std::string stats_to_json(const Stats& s, const Params& p) {
                        {"cell", p.cell},
                        {"normals", p.normals == NormalMode::Gradient ? "gradient" : p.normals == NormalMode::Area ? "area" : "none"},
                        {"curvature_threshold", p.curvature_threshold > 0 ? p.curvature_threshold : default_curvature_threshold()},
+                       {"level2_tolerance", p.level2_tolerance},
                        {"level_hysteresis", p.level_hysteresis}};
     return j.dump(2) + "\n";
 }

@@ -107,6 +107,11 @@ TEST_CASE("absurd parameters are one-line errors naming the parameter and why", 
         p.curvature_threshold = t;
         require_param_error(x, p, "curvature threshold", "must be finite and > 0", counted);
     }
+    for (float t : {-0.5f, nan, inf}) {
+        Params p = with_radius(0.025f);
+        p.level2_tolerance = t;
+        require_param_error(x, p, "level-2 tolerance", "must be finite and >= 0", counted);
+    }
     for (std::uint64_t bytes : {1ull, 4095ull}) {
         Params p = with_radius(0.025f);
         p.memory_limit_bytes = bytes;
@@ -117,7 +122,7 @@ TEST_CASE("absurd parameters are one-line errors naming the parameter and why", 
         p.memory_limit_bytes = 64 * 1024;
         require_param_error(x, p, "budget", "use a larger cell or a smaller domain", counted);
     }
-    CHECK(counted == 30);
+    CHECK(counted == 33);
     std::printf("absurd parameter sets rejected through the API: %d\n", counted);
 }
 

@@ -46,6 +46,11 @@ struct Params {
     float curvature_threshold = 0.0f;  ///< adaptive mode: mean cell curvature (paper eq. 3) at which a
                                        ///< coarse cell becomes level 3; <= 0 picks the calibrated default.
                                        ///< Dimensionless: sum over neighbours of (1 - n_i.n_j)(1 - d/R)
+    float level2_tolerance = 0.0f;     ///< adaptive mode, the level-2 check (host/level2_check.hpp): a level-2
+                                       ///< cell becomes level 3, with the level-2 cells of its 3x3x3 block, where
+                                       ///< the field at the centre of one of its crossed cubes of 2r differs from
+                                       ///< the trilinear value by more than this many r; 0 = off (README: 0.5 with
+                                       ///< curvature threshold 8 suits resampled or disordered particles)
     std::uint64_t memory_limit_bytes = 0;  ///< bytes; budget for the largest allocations; 0: device and host limits
     float level_hysteresis = 0.0f;     ///< adaptive mode, frame sequences: a coarse cell keeps its level of the
                                        ///< previous frame until its curvature passes the threshold by this
@@ -98,6 +103,7 @@ struct Stats {
     std::size_t surface_cells_level3 = 0;   ///< of those, cells meshed on the r lattice
     std::size_t splash_cells = 0;           ///< cells forced to level 3 by a nearby splash or thin particle
     std::size_t band_closure_cells = 0;     ///< coarse cells added by band closure (DESIGN §7)
+    std::size_t level2_check_cells = 0;     ///< level-2 cells the level-2 check made level 3 (DESIGN §3.2)
     std::size_t fine_points = 0;            ///< unique fine lattice points evaluated
     std::size_t fine_points_level2 = 0;     ///< of those, points on the level-2 lattice
     std::size_t fine_points_level3 = 0;     ///< of those, points only on the level-3 lattice

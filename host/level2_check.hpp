@@ -1,0 +1,31 @@
+// The level-2 check (beyond the paper; DESIGN §3.2): a coarse cell that curvature left at level 2
+// is meshed with cells of r after all where its level-2 lattice misses the field. The field phi is
+// a signed distance (DESIGN §3.3), so the gap between its true value at the centre of a level-2
+// cube and the trilinear value there (the mean of the cube's corners) is about how far the
+// level-2 surface would stand off the true one near that point. Curvature from particle normals
+// misses thin sheets and ridges and fires on disordered particles on flat water; this check
+// measures the lattice error itself, at one extra point per level-2 cube (the cube centres are
+// level-3 points, so a promoted cell reuses them).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "coarse_cells.hpp"
+#include "fine_point_map.hpp"
+
+namespace trilevel {
+
+/// Lattice keys (lattice::pack) of the centres of the level-2 cubes of every level-2 cell in
+/// `cells`, sorted and unique. The centres lie inside their cell, so no two cells share one.
+std::vector<std::uint64_t> level2_check_points(const std::vector<CoarseCell>& cells, const LatticeFrame& frame);
+
+/// Indices into `cells` (ascending) of the level-2 cells to make level 3: those with a cube that
+/// the surface crosses (its 8 corners and centre hold both signs) and whose centre value differs
+/// from the mean of its corners by more than `tolerance` (world units), and the level-2 cells of
+/// their 3x3x3 blocks (compact level-3 regions: a lone level-3 cell costs crack patches on all its
+/// faces). Every corner and centre must be in `field` (throws Error).
+std::vector<std::size_t> cells_failing_level2_check(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
+                                                    const FinePointMap& field, float tolerance);
+
+}  // namespace trilevel

@@ -1,0 +1,112 @@
+// The level-2 check (host/level2_check.hpp): which level-2 cells it sends to level 3 ([mesh]), and
+// the whole pipeline with it on ([e2e]).
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "level2_check.hpp"
+#include "mesh_test_support.hpp"
+#include "test_support.hpp"
+#include "trilevel/io.hpp"
+#include "trilevel/trilevel.hpp"
+
+using namespace trilevel;
+
+namespace {
+
+const LatticeFrame kFrame{glm::vec3(0.0f), 1.0f, 4};
+
+/// A row of five level-2 cells along x at y = z = 5, then a level-3 cell, and a level-2 cell two
+/// rows away in y (outside every 3x3x3 block of the row's middle cell).
+std::vector<CoarseCell> row_cells() {
+    std::vector<CoarseCell> cells;
+    for (int x = 3; x <= 7; ++x) cells.push_back({{x, 5, 5}, 2});
+    cells.push_back({{8, 5, 5}, 3});
+    cells.push_back({{5, 7, 5}, 2});
+    return cells;
+}
+
+/// The field of `cells` from f, with the level-2 cube centres added.
+FinePointMap field_with_centres(const std::vector<CoarseCell>& cells, const std::function<float(glm::ivec3)>& f) {
+    FinePointMap map = test::make_field(cells, kFrame, f);
+    for (std::uint64_t key : level2_check_points(cells, kFrame)) map.insert(key, f(lattice::unpack(key)));
+    return map;
+}
+
+}  // namespace
+
+TEST_CASE("level-2 check: one centre per level-2 cube, inside its cell", "[mesh]") {
+    const auto cells = row_cells();
+    const auto keys = level2_check_points(cells, kFrame);
+    CHECK(keys.size() == 6 * 8);  // six level-2 cells of 2x2x2 cubes; the level-3 cell has none
+    CHECK(std::is_sorted(keys.begin(), keys.end()));
+    for (std::uint64_t k : keys) {
+        const glm::ivec3 p = lattice::unpack(k);
+        CHECK((p.x % 2 == 1 && p.y % 2 == 1 && p.z % 2 == 1));
+    }
+}
+
+TEST_CASE("level-2 check: a linear field passes, a bump promotes its cell and the level-2 cells of its block", "[mesh]") {
+    const auto cells = row_cells();
+    auto plane = [](glm::ivec3 p) { return float(p.z) - 21.3f; };  // crosses every cell at z = 21.3
+    // Trilinear interpolation reproduces a linear field: no cell fails, whatever the tolerance.
+    CHECK(cells_failing_level2_check(cells, kFrame, field_with_centres(cells, plane), 1e-4f).empty());
+
+    // The centre (21, 21, 21) of a crossed cube of cell (5, 5, 5) sits 0.8 off the plane's value.
+    const glm::ivec3 bump(21, 21, 21);
+    auto bumped = [&](glm::ivec3 p) { return plane(p) + (p == bump ? -0.8f : 0.0f); };
+    const FinePointMap field = field_with_centres(cells, bumped);
+    const auto promoted = cells_failing_level2_check(cells, kFrame, field, 0.5f);
+    std::vector<glm::ivec3> coords;
+    for (std::size_t i : promoted) coords.push_back(cells[i].coord);
+    CHECK(std::is_sorted(promoted.begin(), promoted.end()));
+    REQUIRE(coords.size() == 3);  // (5,5,5) and its level-2 block neighbours (4,5,5), (6,5,5)
+    CHECK(coords[0] == glm::ivec3(4, 5, 5));
+    CHECK(coords[1] == glm::ivec3(5, 5, 5));
+    CHECK(coords[2] == glm::ivec3(6, 5, 5));
+    // A tolerance above the gap promotes nothing.
+    CHECK(cells_failing_level2_check(cells, kFrame, field, 0.9f).empty());
+}
+
+TEST_CASE("level-2 check: cubes the surface does not cross are never promoted; missing points are errors", "[mesh]") {
+    const auto cells = row_cells();
+    // All positive (air), with a large gap at one centre: no surface there to misplace.
+    const glm::ivec3 bump(21, 21, 21);
+    auto air = [&](glm::ivec3 p) { return 5.0f + (p == bump ? 3.0f : 0.0f); };
+    CHECK(cells_failing_level2_check(cells, kFrame, field_with_centres(cells, air), 0.5f).empty());
+    // A centre the surface reaches only there (the corners all outside): crossed, promoted.
+    auto droplet = [&](glm::ivec3 p) { return p == bump ? -1.0f : 1.0f; };
+    CHECK(cells_failing_level2_check(cells, kFrame, field_with_centres(cells, droplet), 0.5f).size() == 3);
+    // Without the centres the check cannot run.
+    const FinePointMap no_centres = test::make_field(cells, kFrame, droplet);
+    CHECK_THROWS_AS(cells_failing_level2_check(cells, kFrame, no_centres, 0.5f), Error);
+}
+
+TEST_CASE("level-2 check end to end: closed, deterministic, more level-3 cells, off by default", "[e2e]") {
+    const float r = 0.025f;
+    const ParticleSet s = generate_scene("pool-and-drop", r, 1);
+    Reconstructor rec;
+    Params p;
+    p.particle_radius = r;
+    Stats off, on, again;
+    const Mesh m_off = rec.reconstruct(s.positions.data(), s.size(), p, &off);
+    p.level2_tolerance = 0.5f;
+    const Mesh m_on = rec.reconstruct(s.positions.data(), s.size(), p, &on);
+    const Mesh m_again = rec.reconstruct(s.positions.data(), s.size(), p, &again);
+    INFO("level-2 cells promoted: " << on.level2_check_cells);
+    CHECK(off.level2_check_cells == 0);
+    CHECK(on.level2_check_cells > 0);
+    CHECK(on.surface_cells_level3 >= off.surface_cells_level3 + on.level2_check_cells);
+    CHECK(is_closed_and_oriented(m_on));
+    CHECK(on.closed);
+    CHECK(test::same_mesh(m_on, m_again));
+    CHECK(!test::same_mesh(m_on, m_off));
+    CHECK(std::count(m_on.vertex_level.begin(), m_on.vertex_level.end(), 3) >
+          std::count(m_off.vertex_level.begin(), m_off.vertex_level.end(), 3));
+
+    for (float bad : {-0.5f, std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity()}) {
+        p.level2_tolerance = bad;
+        CHECK_THROWS_WITH(rec.reconstruct(s.positions.data(), s.size(), p),
+                          Catch::Matchers::Contains("level-2 tolerance must be finite and >= 0"));
+    }
+}
