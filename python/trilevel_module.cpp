@@ -61,6 +61,7 @@ struct ReconstructOptions {
     float cell = 1.0f;
     float kernel_radius = 4.0f;
     float curvature_threshold = 0.0f;
+    float level2_tolerance = 0.0f;
     std::uint64_t memory_limit = 0;
     float level_hysteresis = 0.0f;
     std::optional<std::string> normals;  ///< None, "gradient" or "area"
@@ -77,6 +78,7 @@ trilevel::Params make_params(float particle_radius, const ReconstructOptions& o)
     p.cell = o.cell;
     p.kernel_radius = o.kernel_radius;
     p.curvature_threshold = o.curvature_threshold;
+    p.level2_tolerance = o.level2_tolerance;
     p.memory_limit_bytes = o.memory_limit;
     p.level_hysteresis = o.level_hysteresis;
     if (!o.normals) p.normals = trilevel::NormalMode::None;
@@ -175,14 +177,15 @@ template <class Define>
 void with_reconstruct_args(Define define) {
     define(py::arg("positions"), py::arg("particle_radius"), py::kw_only(), py::arg("mode") = "adaptive",
            py::arg("cell") = 1.0f, py::arg("kernel_radius") = 4.0f, py::arg("curvature_threshold") = 0.0f,
-           py::arg("memory_limit") = 0, py::arg("level_hysteresis") = 0.0f, py::arg("normals") = py::none(),
+           py::arg("level2_tolerance") = 0.0f, py::arg("memory_limit") = 0, py::arg("level_hysteresis") = 0.0f, py::arg("normals") = py::none(),
            py::arg("attributes") = py::none(), py::arg("return_levels") = false);
 }
 
 ReconstructOptions options(std::string mode, float cell, float kernel_radius, float curvature_threshold,
-                           std::uint64_t memory_limit, float level_hysteresis, std::optional<std::string> normals,
+                           float level2_tolerance, std::uint64_t memory_limit, float level_hysteresis, std::optional<std::string> normals,
                            std::optional<py::dict> attributes, bool return_levels) {
-    return {std::move(mode),  cell,  kernel_radius, curvature_threshold, memory_limit, level_hysteresis,
+    return {std::move(mode),    cell,         kernel_radius,    curvature_threshold,
+            level2_tolerance,   memory_limit, level_hysteresis,
             std::move(normals), std::move(attributes), return_levels};
 }
 
@@ -197,6 +200,8 @@ cell: uniform mode: marching-cubes cell size in multiples of r; 4/cell must be a
 kernel_radius: SPH kernel support R in multiples of r, in [1, 16].
 curvature_threshold: adaptive mode: mean cell curvature from which a coarse cell is meshed with
     cells of r; <= 0 picks the calibrated default (trilevel.default_curvature_threshold()).
+level2_tolerance: adaptive mode: also mesh with cells of r where the level-2 lattice misses the
+    field at a cube centre by more than this many r (CLI --level2-tolerance); 0 = off.
 memory_limit: budget in bytes for the largest allocations; 0: the device's and host's limits.
 level_hysteresis: adaptive mode, frame sequences on one Reconstructor: a coarse cell keeps its
     previous frame's level until its curvature passes the threshold by this fraction of it, in
@@ -241,11 +246,12 @@ PYBIND11_MODULE(trilevel, m) {
         cls.def(
             "reconstruct",
             [](PyReconstructor& rec, const Array<float>& positions, float particle_radius, std::string mode, float cell,
-               float kernel_radius, float curvature_threshold, std::uint64_t memory_limit, float level_hysteresis,
-               std::optional<std::string> normals, std::optional<py::dict> attributes, bool return_levels) {
+               float kernel_radius, float curvature_threshold, float level2_tolerance, std::uint64_t memory_limit,
+               float level_hysteresis, std::optional<std::string> normals, std::optional<py::dict> attributes,
+               bool return_levels) {
                 return rec.reconstruct(positions, particle_radius,
-                                       options(std::move(mode), cell, kernel_radius, curvature_threshold, memory_limit,
-                                               level_hysteresis, std::move(normals), std::move(attributes),
+                                       options(std::move(mode), cell, kernel_radius, curvature_threshold,
+                                               level2_tolerance, memory_limit, level_hysteresis, std::move(normals), std::move(attributes),
                                                return_levels));
             },
             kReconstructDoc, args...);
@@ -259,7 +265,7 @@ PYBIND11_MODULE(trilevel, m) {
         m.def(
             "reconstruct",
             [](const Array<float>& positions, float particle_radius, std::string mode, float cell, float kernel_radius,
-               float curvature_threshold, std::uint64_t memory_limit, float level_hysteresis,
+               float curvature_threshold, float level2_tolerance, std::uint64_t memory_limit, float level_hysteresis,
                std::optional<std::string> normals, std::optional<py::dict> attributes, bool return_levels, int device) {
                 std::unique_ptr<PyReconstructor> rec;
                 {
@@ -268,7 +274,7 @@ PYBIND11_MODULE(trilevel, m) {
                 }
                 return rec->reconstruct(positions, particle_radius,
                                         options(std::move(mode), cell, kernel_radius, curvature_threshold,
-                                                memory_limit, level_hysteresis, std::move(normals),
+                                                level2_tolerance, memory_limit, level_hysteresis, std::move(normals),
                                                 std::move(attributes), return_levels));
             },
             one_shot_doc.c_str(), args..., py::arg("device") = -1);

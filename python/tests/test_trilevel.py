@@ -85,6 +85,10 @@ class ReconstructTest(unittest.TestCase):
         self.assertEqual(s_low["parameters"]["curvature_threshold"], np.float32(0.05))
         self.assertEqual(s_adaptive["parameters"]["curvature_threshold"], np.float32(trilevel.default_curvature_threshold()))
         self.assertGreater(s_low["surface_cells_by_level"]["3"], s_adaptive["surface_cells_by_level"]["3"])
+        _, _, s_checked = self.rec.reconstruct(self.sphere, R, curvature_threshold=8.0, level2_tolerance=0.5)
+        self.assertEqual(s_checked["parameters"]["level2_tolerance"], np.float32(0.5))
+        self.assertEqual(s_adaptive["parameters"]["level2_tolerance"], 0.0)
+        self.assertTrue(s_checked["closed"])
 
     def test_reused_reconstructor_and_one_shot_call_agree_bit_for_bit(self):
         v1, t1, _ = self.rec.reconstruct(self.sphere, R)
