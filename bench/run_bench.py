@@ -159,6 +159,8 @@ def make_tools(args, trilevel, splashsurf, openvdb):
         tools.append(dict(name=name, cmd=cmd, kind="trilevel"))
 
     tri("trilevel-adaptive", [])
+    # The opt-in level-2 check with the curvature threshold raised (README, "Choosing the threshold").
+    tri("trilevel-adaptive-check", ["--curvature-threshold", "8", "--level2-tolerance", "0.5"])
     tri("trilevel-uniform1", ["--mode", "uniform", "--cell", "1"])
     tri("trilevel-uniform2", ["--mode", "uniform", "--cell", "2"])
     if splashsurf:
@@ -304,18 +306,21 @@ def bench_dataset(ds, tools, args, workdir, env):
         except subprocess.TimeoutExpired:
             checks[name] = dict(closed=None, msg=["check timed out"])
         log(f"{ds['name']} {name}: closed={checks[name]['closed']} {checks[name]['msg']}")
-    compare = None
-    a, b = outputs.get("trilevel-adaptive"), outputs.get("trilevel-uniform1")
-    if a and b and not args.no_compare:
+    compare = {}
+    b = outputs.get("trilevel-uniform1")
+    for tool in ("trilevel-adaptive", "trilevel-adaptive-check"):
+        a = outputs.get(tool)
+        if not (a and b) or args.no_compare:
+            continue
         try:
             p = subprocess.run([PY, MESHCHECK_PY, "compare", a, b, "--unit", str(ds["radius"]), "--samples",
                                 str(args.samples), "--json"], capture_output=True, text=True, timeout=args.check_timeout)
-            compare = json.loads(p.stdout) if p.returncode == 0 else {"error": p.stderr.strip()[-300:]}
+            compare[tool] = json.loads(p.stdout) if p.returncode == 0 else {"error": p.stderr.strip()[-300:]}
         except subprocess.TimeoutExpired:
-            compare = {"error": "compare timed out"}
+            compare[tool] = {"error": "compare timed out"}
         except json.JSONDecodeError as e:
-            compare = {"error": f"bad JSON: {e}"}
-        log(f"{ds['name']} compare adaptive vs uniform1: {json.dumps(compare)[:300]}")
+            compare[tool] = {"error": f"bad JSON: {e}"}
+        log(f"{ds['name']} compare {tool} vs uniform1: {json.dumps(compare[tool])[:300]}")
     return rows, checks, compare
 
 
@@ -489,17 +494,20 @@ def write_report(path, args, datasets, tools, rows, summary, checks, compares, m
             if U:
                 target("adaptive / uniform r wall time", dsn, ratio(A["wall_med"], U["wall_med"]), 0.5)
                 target("adaptive / uniform r peak memory", dsn, ratio(A["rss_med"], U["rss_med"]), 0.35)
-        if dsn in ("db23", "db23x8", "pool-and-drop") and U:
-            target("adaptive / uniform r triangles (issue 3)", dsn, ratio(A["triangles"], U["triangles"]), 0.40)
-            target("adaptive / uniform r peak memory (issue 3)", dsn, ratio(A["rss_med"], U["rss_med"]), 1.0)
-            target("adaptive / uniform r wall time (issue 3)", dsn, ratio(A["wall_med"], U["wall_med"]), 1.0)
-            c = compares.get(dsn)
+        for tool, tag in (("trilevel-adaptive", ""), ("trilevel-adaptive-check", ", check")):
+            T = summary.get((dsn, tool))
+            if dsn not in ("db23", "db23x8", "pool-and-drop") or not U or not T:
+                continue
+            target(f"adaptive{tag} / uniform r triangles (issue 3)", dsn, ratio(T["triangles"], U["triangles"]), 0.40)
+            target(f"adaptive{tag} / uniform r peak memory (issue 3)", dsn, ratio(T["rss_med"], U["rss_med"]), 1.0)
+            target(f"adaptive{tag} / uniform r wall time (issue 3)", dsn, ratio(T["wall_med"], U["wall_med"]), 1.0)
+            c = compares.get(dsn, {}).get(tool)
             if c and "symmetric" in c:
-                target("deviation mean vs uniform r [r]", dsn, c["symmetric"].get("mean"), 0.1)
-                target("deviation p99 vs uniform r [r]", dsn, c["symmetric"].get("p99"), 0.5)
-            pt = A.get("stats.triangles_patch")
-            if pt is not None and A["triangles"]:
-                target("patch triangles / all", dsn, pt / A["triangles"], 0.01)
+                target(f"deviation{tag} mean vs uniform r [r]", dsn, c["symmetric"].get("mean"), 0.1)
+                target(f"deviation{tag} p99 vs uniform r [r]", dsn, c["symmetric"].get("p99"), 0.5)
+            pt = T.get("stats.triangles_patch")
+            if pt is not None and T["triangles"]:
+                target(f"patch triangles{tag} / all", dsn, pt / T["triangles"], 0.01)
         if dsn == "db23":
             target("24 k frame, warm start, wall [s]", dsn, A["wall_med"], 0.3)
     add("")
@@ -549,13 +557,13 @@ def write_report(path, args, datasets, tools, rows, summary, checks, compares, m
     for ds in datasets:
         U = summary.get((ds["name"], "trilevel-uniform1"))
         for mode, tname in (("uniform 2r", "trilevel-uniform2"), ("adaptive", "trilevel-adaptive"),
-                            ("uniform r", "trilevel-uniform1")):
+                            ("adaptive, check", "trilevel-adaptive-check"), ("uniform r", "trilevel-uniform1")):
             s = summary.get((ds["name"], tname))
             if not s:
                 continue
             dev = ""
-            if tname == "trilevel-adaptive":
-                c = compares.get(ds["name"])
+            if tname.startswith("trilevel-adaptive"):
+                c = compares.get(ds["name"], {}).get(tname)
                 if c and "symmetric" in c:
                     dev = f"{c['symmetric']['mean']:.3f} / {c['symmetric']['p99']:.3f}"
                 elif c:
@@ -590,7 +598,7 @@ def write_report(path, args, datasets, tools, rows, summary, checks, compares, m
             if not s or s["wall_med"] is None:
                 continue
             tot = s.get("stage_ms.total")
-            add(f"| {ds['name']} | {t['name'].split('-')[1]} | " + " | ".join(fmt(s.get(k), 1) for k in tri_keys)
+            add(f"| {ds['name']} | {t['name'][len('trilevel-'):]} | " + " | ".join(fmt(s.get(k), 1) for k in tri_keys)
                 + f" | {s['wall_med'] * 1000:.1f} | {fmt(s['wall_med'] * 1000 - tot, 1) if tot is not None else '–'} |")
     add("")
     add("`wall − total`: process start, OpenCL platform/context setup, program build or cache load, and what the "
