@@ -199,7 +199,7 @@ mode: "adaptive" (3-level grid: cells of 2r on flat water, r on curved and splas
 cell: uniform mode: marching-cubes cell size in multiples of r; 4/cell must be an integer.
 kernel_radius: SPH kernel support R in multiples of r, in [1, 16].
 curvature_threshold: adaptive mode: mean cell curvature from which a coarse cell is meshed with
-    cells of r; <= 0 picks the calibrated default (trilevel.default_curvature_threshold()).
+    cells of r; 0 picks the calibrated default (trilevel.default_curvature_threshold()).
 level2_tolerance: adaptive mode: also mesh with cells of r where the level-2 lattice misses the
     field at a cube centre by more than this many r (CLI --level2-tolerance); 0 = off.
 memory_limit: budget in bytes for the largest allocations; 0: the device's and host's limits.
@@ -288,7 +288,7 @@ PYBIND11_MODULE(trilevel, m) {
        "global_memory and max_allocation in bytes, int64_atomics).");
 
     m.def("default_curvature_threshold", &trilevel::default_curvature_threshold,
-          "The calibrated curvature threshold used when curvature_threshold <= 0.");
+          "The calibrated curvature threshold used when curvature_threshold is 0.");
 
     m.def("read_particles", [](const std::string& path, std::optional<std::vector<std::string>> attributes,
                                bool drop_invalid) -> py::object {

@@ -44,7 +44,7 @@ struct Params {
     Mode mode = Mode::Adaptive;        ///< see Mode
     float cell = 1.0f;                 ///< uniform mode: marching-cubes cell size in r; 4/cell must be an integer
     float curvature_threshold = 0.0f;  ///< adaptive mode: mean cell curvature (paper eq. 3) at which a
-                                       ///< coarse cell becomes level 3; <= 0 picks the calibrated default.
+                                       ///< coarse cell becomes level 3; 0 picks the calibrated default.
                                        ///< Dimensionless: sum over neighbours of (1 - n_i.n_j)(1 - d/R)
     float level2_tolerance = 0.0f;     ///< adaptive mode, the level-2 check (host/level2_check.hpp): a level-2
                                        ///< cell becomes level 3, with the level-2 cells of its 3x3x3 block, where
