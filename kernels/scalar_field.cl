@@ -87,8 +87,12 @@ __kernel void scalar_field(__global const uint* pending, uint count, __global co
 #define CLAIMED_BITS 0x7fc00001u
 #define LANES 8
 #define MAX_CELL_POINTS 729  /* (8 + 1)^3: uniform cell r/2 */
+// Which pending points of its cell a work-group claims (ClaimPoints in src/device_stages.hpp).
+#define CLAIM_LEVEL 0           /* the points of the cell's level */
+#define CLAIM_EDGE_MIDPOINTS 1  /* one odd coordinate: midpoints of level-2 edges (stage 8b) */
+#define CLAIM_CUBE_CENTRES 2    /* three odd coordinates: centres of level-2 cubes (level-2 check) */
 
-__kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, int every_point,
+__kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, int claim,
                                  __global const ulong* keys, ulong mask,
                                  volatile __global uint* value_bits, float step, __global const float4* sorted,
                                  float inv_cell, __global const ulong* bin_keys, ulong bin_mask,
@@ -111,7 +115,8 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
     barrier(CLK_LOCAL_MEM_FENCE);
     for (int l = (int)lid; l < points; l += (int)lsize) {  // claim the cell's pending points
         int3 o = (int3)(l % side, (l / side) % side, l / (side * side));
-        if (!every_point && c.w == 2 && ((o.x | o.y | o.z) & 1)) continue;
+        const int odd = (o.x & 1) + (o.y & 1) + (o.z & 1);
+        if (claim == CLAIM_LEVEL ? (c.w == 2 && odd) : odd != (claim == CLAIM_EDGE_MIDPOINTS ? 1 : 3)) continue;
         long slot = hash_find(keys, mask, pack_key(c.xyz * coarse_steps + o));
         if (slot < 0) continue;
         if (atomic_cmpxchg(&value_bits[slot], PENDING_BITS, CLAIMED_BITS) != PENDING_BITS) continue;

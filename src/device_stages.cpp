@@ -268,14 +268,14 @@ DeviceBuffer cell_buffer(OpenCLRuntime& rt, const std::vector<CoarseCell>& cells
 
 /// Stage 6 over the pending points of `cell_count` cells, one work-group per cell with candidates
 /// gathered in local memory; cells whose candidates do not fit leave their points to the per-point
-/// kernel. `every_point`: claim every lattice point of the cell, not only those of its level.
+/// kernel. `claim`: which pending points of its cell a work-group takes (scalar_field.cl, CLAIM_*).
 void evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf, std::size_t cell_count,
-                    bool every_point, const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
+                    int claim, const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
     DeviceBuffer overflow = rt.buffer(sizeof(cl_int), "scalar field overflow flag");
     rt.queue().enqueueFillBuffer(overflow, cl_int{0}, 0, sizeof(cl_int));
     constexpr std::size_t kMaxCellPoints = 729;  // as in scalar_field.cl
     auto& k = rt.kernel("scalar_field_cells");
-    set_args(k, cell_buf, cl_int(frame.coarse_steps), cl_int(every_point), p.hash.keys, cl_ulong(p.hash.mask()),
+    set_args(k, cell_buf, cl_int(frame.coarse_steps), cl_int(claim), p.hash.keys, cl_ulong(p.hash.mask()),
              p.values, frame.step, b.sorted, 1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.mask()), b.range, r, R,
              overflow);
     set_candidate_args(rt, k, 15);
@@ -304,7 +304,7 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<Coa
         if (!needs_growth(c, p.hash)) break;
         grow_fine_points(rt, p, std::max(p.hash.capacity * 2, next_pow2(c.inserted * 2 + 1)));
     }
-    evaluate_cells(rt, p, cell_buf, cells.size(), false, frame, b, r, R);
+    evaluate_cells(rt, p, cell_buf, cells.size(), 0, frame, b, r, R);  // CLAIM_LEVEL
     rt.finish();
 }
 
@@ -324,8 +324,8 @@ void evaluate_pending(OpenCLRuntime& rt, FinePoints& p, const LatticeFrame& fram
 }
 
 void insert_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<std::uint64_t>& keys,
-                         const std::vector<CoarseCell>& holders, const LatticeFrame& frame, const BinnedParticles& b,
-                         float r, float R) {
+                         ClaimPoints kind, const std::vector<CoarseCell>& holders, const LatticeFrame& frame,
+                         const BinnedParticles& b, float r, float R) {
     if (keys.empty()) return;
     const cl_uint n = cl_uint(keys.size());
     DeviceBuffer in = rt.buffer(n * sizeof(cl_ulong), "extra fine points");
@@ -340,7 +340,7 @@ void insert_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<std
         if (!needs_growth(c, p.hash)) break;
         grow_fine_points(rt, p, std::max(p.hash.capacity * 2, next_pow2(c.inserted * 2 + 1)));
     }
-    evaluate_cells(rt, p, cell_buffer(rt, holders), holders.size(), true, frame, b, r, R);
+    evaluate_cells(rt, p, cell_buffer(rt, holders), holders.size(), int(kind), frame, b, r, R);
 }
 
 FinePointMap map_fine_points(OpenCLRuntime& rt, FinePoints& p) {

@@ -74,11 +74,16 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vecto
 /// Evaluates every point inserted but not evaluated yet.
 void evaluate_pending(OpenCLRuntime& rt, FinePoints& points, const LatticeFrame& frame, const BinnedParticles& bins,
                       float r, float R);
+/// Level-3 points of level-2 cells added after the first evaluation (scalar_field.cl, CLAIM_*).
+enum class ClaimPoints {
+    EdgeMidpoints = 1,  ///< one odd coordinate: midpoints of level-2 edges (stage 8b)
+    CubeCentres = 2,    ///< three odd coordinates: centres of level-2 cubes (the level-2 check)
+};
 /// Inserts the given lattice point keys (growing the table as needed) and evaluates the new ones.
-/// Every key must be a lattice point of a cell of `holders` (the cells whose work-groups evaluate
-/// them).
+/// Every key must be a point of kind `kind` of a cell of `holders` (the cells whose work-groups
+/// evaluate them; each looks up only the points of that kind).
 void insert_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vector<std::uint64_t>& keys,
-                         const std::vector<CoarseCell>& holders, const LatticeFrame& frame,
+                         ClaimPoints kind, const std::vector<CoarseCell>& holders, const LatticeFrame& frame,
                          const BinnedParticles& bins, float r, float R);
 /// Maps the table for the host and returns a view of it: no copy on CPU devices (the buffers are
 /// allocated host-accessible); an empty view when nothing was ever inserted. Host writes (transition continuity) land in the table. Call

@@ -195,7 +195,8 @@ std::size_t promote_failing_cells(OpenCLRuntime& rt, FinePoints& points, std::ve
     std::vector<CoarseCell> level2;
     for (const auto& c : cells)
         if (c.level == 2) level2.push_back(c);
-    insert_and_evaluate(rt, points, level2_check_points(cells, frame), level2, frame, bins, r, R);
+    insert_and_evaluate(rt, points, level2_check_points(cells, frame), ClaimPoints::CubeCentres, level2, frame, bins,
+                        r, R);
     std::vector<std::size_t> failing;
     {
         const FinePointMap field = map_fine_points(rt, points);
@@ -255,7 +256,7 @@ void refine_level2_edges(OpenCLRuntime& rt, FinePoints& points, FinePointMap& fi
     if (mids.keys.empty()) return;
     field = FinePointMap();
     unmap_fine_points(rt, points);
-    insert_and_evaluate(rt, points, mids.keys, mids.holders, frame, bins, r, R);
+    insert_and_evaluate(rt, points, mids.keys, ClaimPoints::EdgeMidpoints, mids.holders, frame, bins, r, R);
     field = map_fine_points(rt, points);
 }
 

@@ -153,7 +153,7 @@ TEST_CASE("a Reconstructor reused across scenes of every size gives each scene's
     }
 }
 
-TEST_CASE("a first frame holds only its loans; from the second on a Reconstructor pools its buffers", "[pool][memory]") {
+TEST_CASE("a first frame holds only its loans, and from the second on a Reconstructor pools its buffers", "[pool][memory]") {
     // A one-file run has nothing to reuse buffers for: its peak is what it lends at once, not the
     // sum of every stage's buffers. A sequence pays that sum from its second frame on and then
     // allocates nothing.

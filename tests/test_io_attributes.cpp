@@ -252,7 +252,7 @@ TEST_CASE("attribute requests: duplicates read once, PLY triplets nx/ny/nz, mult
                         Catch::Contains("attribute 'density' holds 2 values, expected 4"));
 }
 
-TEST_CASE("drop_invalid: NaN/Inf particles dropped with their attribute values, counted; all dropped is an error",
+TEST_CASE("drop_invalid: NaN/Inf particles dropped with their attribute values, counted, all dropped is an error",
           "[io][attributes]") {
     TempDir tmp;
     auto pts = sample_points();  // 4 particles

@@ -460,7 +460,7 @@ TEST_CASE("CLI: hostile inputs end as one stderr line, a non-zero exit and no ou
     }
 }
 
-TEST_CASE("CLI: --drop-invalid drops NaN/Inf particles with one warning; all invalid is an error", "[cli][hostile]") {
+TEST_CASE("CLI: --drop-invalid drops NaN/Inf particles with one warning, all invalid is an error", "[cli][hostile]") {
     TempDir tmp;
     std::vector<float> block;  // 8 x 8 x 8 particles at spacing 2r
     for (int i = 0; i < 8; ++i)

@@ -95,7 +95,7 @@ TEST_CASE("BGEO: gzip'd and plain, with and without extra point attributes", "[i
     }
 }
 
-TEST_CASE("XYZ: raw little-endian float32 triplets; extension matched case-insensitively", "[io]") {
+TEST_CASE("XYZ: raw little-endian float32 triplets, extension matched case-insensitively", "[io]") {
     TempDir tmp;
     const auto pts = sample_points();
     std::string bytes(reinterpret_cast<const char*>(pts.data()), pts.size() * 4);

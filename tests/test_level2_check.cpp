@@ -68,7 +68,7 @@ TEST_CASE("level-2 check: a linear field passes, a bump promotes its cell and th
     CHECK(cells_failing_level2_check(cells, kFrame, field, 0.9f).empty());
 }
 
-TEST_CASE("level-2 check: cubes the surface does not cross are never promoted; missing points are errors", "[mesh]") {
+TEST_CASE("level-2 check: cubes the surface does not cross are never promoted, missing points are errors", "[mesh]") {
     const auto cells = row_cells();
     // All positive (air), with a large gap at one centre: no surface there to misplace.
     const glm::ivec3 bump(21, 21, 21);
