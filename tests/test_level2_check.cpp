@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "cli_test_support.hpp"
 #include "level2_check.hpp"
 #include "mesh_test_support.hpp"
 #include "test_support.hpp"
@@ -109,4 +110,26 @@ TEST_CASE("level-2 check end to end: closed, deterministic, more level-3 cells, 
         CHECK_THROWS_WITH(rec.reconstruct(s.positions.data(), s.size(), p),
                           Catch::Matchers::Contains("level-2 tolerance must be finite and >= 0"));
     }
+}
+
+TEST_CASE("CLI --level2-tolerance: the library's mesh, and its promotions in --stats", "[cli]") {
+    const float r = 0.025f;
+    test::TempDir tmp;
+    const ParticleSet s = generate_scene("pool-and-drop", r, 1);
+    write_particles(tmp.file("s.xyz"), s);
+    const auto run = test::run_cli(tmp, "reconstruct '" + tmp.file("s.xyz") + "' -r 0.025 --level2-tolerance 0.5 -o '" +
+                                            tmp.file("m.ply") + "' --stats '" + tmp.file("m.json") + "'");
+    INFO(run.err);
+    REQUIRE(run.code == 0);
+    Params p;
+    p.particle_radius = r;
+    p.level2_tolerance = 0.5f;
+    Stats st;
+    const Mesh expected = Reconstructor().reconstruct(s.positions.data(), s.size(), p, &st);
+    const Mesh m = read_mesh(tmp.file("m.ply"));
+    CHECK(m.positions == expected.positions);
+    CHECK(m.triangles == expected.triangles);
+    const std::string json = test::slurp(tmp.file("m.json"));
+    CHECK(json.find("\"level2_check_cells\": " + std::to_string(st.level2_check_cells)) != std::string::npos);
+    CHECK(json.find("\"level2_tolerance\": 0.5") != std::string::npos);
 }
