@@ -88,9 +88,9 @@ __kernel void scalar_field(__global const uint* pending, uint count, __global co
 #define LANES 8
 #define MAX_CELL_POINTS 729  /* (8 + 1)^3: uniform cell r/2 */
 // Which pending points of its cell a work-group claims (ClaimPoints in src/device_stages.hpp).
-#define CLAIM_LEVEL 0           /* the points of the cell's level */
-#define CLAIM_EDGE_MIDPOINTS 1  /* one odd coordinate: midpoints of level-2 edges (stage 8b) */
-#define CLAIM_CUBE_CENTRES 2    /* three odd coordinates: centres of level-2 cubes (level-2 check) */
+#define CLAIM_LEVEL 0              /* the points of the cell's level */
+#define CLAIM_EDGE_MIDPOINTS 1     /* one odd coordinate: midpoints of level-2 edges (stage 8b) */
+#define CLAIM_LEVEL_AND_CENTRES 2  /* and in level-2 cells the three-odd centres of their cubes (level-2 check) */
 
 __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, int claim,
                                  __global const ulong* keys, ulong mask,
@@ -116,7 +116,10 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
     for (int l = (int)lid; l < points; l += (int)lsize) {  // claim the cell's pending points
         int3 o = (int3)(l % side, (l / side) % side, l / (side * side));
         const int odd = (o.x & 1) + (o.y & 1) + (o.z & 1);
-        if (claim == CLAIM_LEVEL ? (c.w == 2 && odd) : odd != (claim == CLAIM_EDGE_MIDPOINTS ? 1 : 3)) continue;
+        const bool take = claim == CLAIM_EDGE_MIDPOINTS
+                              ? odd == 1
+                              : c.w != 2 || odd == 0 || (claim == CLAIM_LEVEL_AND_CENTRES && odd == 3);
+        if (!take) continue;
         long slot = hash_find(keys, mask, pack_key(c.xyz * coarse_steps + o));
         if (slot < 0) continue;
         if (atomic_cmpxchg(&value_bits[slot], PENDING_BITS, CLAIMED_BITS) != PENDING_BITS) continue;

@@ -286,7 +286,7 @@ void evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf
 }
 
 void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<CoarseCell>& cells,
-                         const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
+                         const LatticeFrame& frame, const BinnedParticles& b, float r, float R, ClaimPoints claim) {
     if (cells.empty()) return;
     const DeviceBuffer cell_buf = cell_buffer(rt, cells);
     const std::size_t side = std::size_t(frame.coarse_steps + 1);
@@ -304,7 +304,7 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<Coa
         if (!needs_growth(c, p.hash)) break;
         grow_fine_points(rt, p, std::max(p.hash.capacity * 2, next_pow2(c.inserted * 2 + 1)));
     }
-    evaluate_cells(rt, p, cell_buf, cells.size(), 0, frame, b, r, R);  // CLAIM_LEVEL
+    evaluate_cells(rt, p, cell_buf, cells.size(), int(claim), frame, b, r, R);
     rt.finish();
 }
 
@@ -323,9 +323,7 @@ void evaluate_pending(OpenCLRuntime& rt, FinePoints& p, const LatticeFrame& fram
     rt.finish();
 }
 
-void insert_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<std::uint64_t>& keys,
-                         ClaimPoints kind, const std::vector<CoarseCell>& holders, const LatticeFrame& frame,
-                         const BinnedParticles& b, float r, float R) {
+void insert_points(OpenCLRuntime& rt, FinePoints& p, const std::vector<std::uint64_t>& keys) {
     if (keys.empty()) return;
     const cl_uint n = cl_uint(keys.size());
     DeviceBuffer in = rt.buffer(n * sizeof(cl_ulong), "extra fine points");
@@ -340,6 +338,13 @@ void insert_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<std
         if (!needs_growth(c, p.hash)) break;
         grow_fine_points(rt, p, std::max(p.hash.capacity * 2, next_pow2(c.inserted * 2 + 1)));
     }
+}
+
+void insert_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<std::uint64_t>& keys,
+                         ClaimPoints kind, const std::vector<CoarseCell>& holders, const LatticeFrame& frame,
+                         const BinnedParticles& b, float r, float R) {
+    if (keys.empty()) return;
+    insert_points(rt, p, keys);
     evaluate_cells(rt, p, cell_buffer(rt, holders), holders.size(), int(kind), frame, b, r, R);
 }
 

@@ -68,20 +68,25 @@ struct FinePoints {
     std::uint64_t* mapped_keys = nullptr;  ///< while mapped for the host (map_fine_points)
     float* mapped_values = nullptr;
 };
-/// Inserts the points of `cells` (growing the table as needed), then evaluates the new ones.
+/// Which pending points of its cell a work-group claims (scalar_field.cl, CLAIM_*).
+enum class ClaimPoints {
+    Level = 0,                ///< the points of the cell's level
+    EdgeMidpoints = 1,        ///< one odd coordinate: midpoints of level-2 edges (stage 8b)
+    LevelAndCubeCentres = 2,  ///< those of its level and, in a level-2 cell, the centres of its cubes
+                              ///< (three odd coordinates: the level-2 check)
+};
+/// Inserts the points of `cells` (growing the table as needed), then evaluates the new ones that
+/// `claim` names (points inserted before, e.g. by insert_points, included).
 void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vector<CoarseCell>& cells,
-                         const LatticeFrame& frame, const BinnedParticles& bins, float r, float R);
+                         const LatticeFrame& frame, const BinnedParticles& bins, float r, float R,
+                         ClaimPoints claim = ClaimPoints::Level);
 /// Evaluates every point inserted but not evaluated yet.
 void evaluate_pending(OpenCLRuntime& rt, FinePoints& points, const LatticeFrame& frame, const BinnedParticles& bins,
                       float r, float R);
-/// Level-3 points of level-2 cells added after the first evaluation (scalar_field.cl, CLAIM_*).
-enum class ClaimPoints {
-    EdgeMidpoints = 1,  ///< one odd coordinate: midpoints of level-2 edges (stage 8b)
-    CubeCentres = 2,    ///< three odd coordinates: centres of level-2 cubes (the level-2 check)
-};
-/// Inserts the given lattice point keys (growing the table as needed) and evaluates the new ones.
-/// Every key must be a point of kind `kind` of a cell of `holders` (the cells whose work-groups
-/// evaluate them; each looks up only the points of that kind).
+/// Inserts the given lattice point keys (growing the table as needed), pending evaluation.
+void insert_points(OpenCLRuntime& rt, FinePoints& points, const std::vector<std::uint64_t>& keys);
+/// insert_points, then evaluates them: every key must be a point of kind `kind` of a cell of
+/// `holders` (the cells whose work-groups evaluate them).
 void insert_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vector<std::uint64_t>& keys,
                          ClaimPoints kind, const std::vector<CoarseCell>& holders, const LatticeFrame& frame,
                          const BinnedParticles& bins, float r, float R);

@@ -187,16 +187,12 @@ void count_mesh(const Mesh& m, Stats& s) {
     }
 }
 
-/// The level-2 check (host/level2_check.hpp) on freshly evaluated cells, before continuity: the
-/// level-2 cells that fail it become level 3 and get their remaining points. Returns how many.
+/// The level-2 check (host/level2_check.hpp) on freshly evaluated cells and cube centres, before
+/// continuity: the level-2 cells that fail it become level 3 and get their remaining points.
+/// Returns how many.
 std::size_t promote_failing_cells(OpenCLRuntime& rt, FinePoints& points, std::vector<CoarseCell>& cells,
                                   const LatticeFrame& frame, const BinnedParticles& bins, float r, float R,
                                   float tolerance) {
-    std::vector<CoarseCell> level2;
-    for (const auto& c : cells)
-        if (c.level == 2) level2.push_back(c);
-    insert_and_evaluate(rt, points, level2_check_points(cells, frame), ClaimPoints::CubeCentres, level2, frame, bins,
-                        r, R);
     std::vector<std::size_t> failing;
     {
         const FinePointMap field = map_fine_points(rt, points);
@@ -223,9 +219,11 @@ FinePointMap close_band(OpenCLRuntime& rt, FinePoints& points, std::vector<Coars
     for (bool first = true;; first = false) {
         auto t0 = Clock::now();
         rt.set_stage("scalar_field");
-        refine_and_evaluate(rt, points, fresh, frame, bins, r, R);
-        if (first && level2_tolerance > 0.0f)
-            s.level2_check_cells = promote_failing_cells(rt, points, cells, frame, bins, r, R, level2_tolerance);
+        const bool check = first && level2_tolerance > 0.0f;  // the cube centres join the first pass
+        if (check) insert_points(rt, points, level2_check_points(cells, frame));
+        refine_and_evaluate(rt, points, fresh, frame, bins, r, R,
+                            check ? ClaimPoints::LevelAndCubeCentres : ClaimPoints::Level);
+        if (check) s.level2_check_cells = promote_failing_cells(rt, points, cells, frame, bins, r, R, level2_tolerance);
         FinePointMap field = map_fine_points(rt, points);
         auto t1 = Clock::now();
         rt.set_stage("band_closure");
