@@ -3,11 +3,12 @@
 
 #include <algorithm>
 #include <cmath>
-#include <utility>
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
+#include "cell_index.hpp"
 #include "trilevel/trilevel.hpp"
 
 namespace trilevel {
@@ -23,24 +24,49 @@ void for_each_level2_cube(const CoarseCell& c, int coarse_steps, F&& f) {
             for (int x = 0; x < coarse_steps; x += 2) f(base + glm::ivec3(x, y, z));
 }
 
-float value_at(const FinePointMap& field, glm::ivec3 p) {
-    const float* v = field.find(p);
-    if (!v) throw Error("level-2 check: a lattice point is missing from the fine point map");
-    return *v;
+/// Values of one level-2 cell, looked up in two batches (cell_index.hpp): its level-2 points
+/// (find_level2_points: (cs/2+1)^3, x fastest) and the centres of its cubes (for_each order).
+struct CellValues {
+    std::vector<std::uint64_t> keys;
+    std::vector<const float*> corners, centres;
+};
+
+void look_up(const FinePointMap& field, const CoarseCell& c, int cs, CellValues& v) {
+    find_level2_points(field, c.coord, cs, v.keys, v.corners);
+    v.keys.clear();
+    for_each_level2_cube(c, cs, [&](glm::ivec3 lo) { v.keys.push_back(lattice::pack(lo + glm::ivec3(1))); });
+    v.centres.resize(v.keys.size());
+    find_batch(field, v.keys.data(), v.keys.size(), v.centres.data());
+    for (const auto* list : {&v.corners, &v.centres})
+        for (const float* p : *list)
+            if (!p) throw Error("level-2 check: a lattice point is missing from the fine point map");
 }
 
-/// Whether the cube at `lo` (edge 2 steps) is crossed and its centre off the trilinear value.
-bool cube_fails(const FinePointMap& field, glm::ivec3 lo, float tolerance) {
-    float sum = 0.0f, lowest, highest;
-    const float centre = value_at(field, lo + glm::ivec3(1));
-    lowest = highest = centre;
+/// Whether a cube of the cell (its corner at level-2 index o) is crossed and its centre off the
+/// trilinear value.
+bool cube_fails(const CellValues& v, int m, glm::ivec3 o, float centre, float tolerance) {
+    float sum = 0.0f, lowest = centre, highest = centre;
     for (int k = 0; k < 8; ++k) {
-        const float v = value_at(field, lo + 2 * glm::ivec3(k & 1, (k >> 1) & 1, (k >> 2) & 1));
-        sum += v;
-        lowest = std::min(lowest, v);
-        highest = std::max(highest, v);
+        const glm::ivec3 q = o + glm::ivec3(k & 1, (k >> 1) & 1, (k >> 2) & 1);
+        const float value = *v.corners[(q.z * m + q.y) * m + q.x];
+        sum += value;
+        lowest = std::min(lowest, value);
+        highest = std::max(highest, value);
     }
     return lowest < 0.0f && highest >= 0.0f && std::fabs(centre - sum / 8.0f) > tolerance;
+}
+
+bool cell_fails(const FinePointMap& field, const CoarseCell& c, int cs, float tolerance, CellValues& v) {
+    look_up(field, c, cs, v);
+    const int m = cs / 2 + 1;
+    std::size_t k = 0;
+    bool fails = false;
+    for_each_level2_cube(c, cs, [&](glm::ivec3 lo) {
+        const glm::ivec3 o = (lo - c.coord * cs) / 2;
+        fails = fails || cube_fails(v, m, o, *v.centres[k], tolerance);
+        ++k;
+    });
+    return fails;
 }
 
 }  // namespace
@@ -58,33 +84,26 @@ std::vector<std::uint64_t> level2_check_points(const std::vector<CoarseCell>& ce
 std::vector<std::size_t> cells_failing_level2_check(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
                                                     const FinePointMap& field, float tolerance) {
     std::vector<std::uint8_t> fails(cells.size(), 0);
+    tbb::enumerable_thread_specific<CellValues> scratch;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 256), [&](const auto& range) {
-        for (std::size_t i = range.begin(); i != range.end(); ++i) {
-            if (cells[i].level != 2) continue;
-            bool f = false;
-            for_each_level2_cube(cells[i], frame.coarse_steps, [&](glm::ivec3 lo) { f = f || cube_fails(field, lo, tolerance); });
-            fails[i] = f;
-        }
+        CellValues& v = scratch.local();
+        for (std::size_t i = range.begin(); i != range.end(); ++i)
+            if (cells[i].level == 2) fails[i] = cell_fails(field, cells[i], frame.coarse_steps, tolerance, v);
     });
-    std::vector<std::pair<std::uint64_t, std::size_t>> by_key(cells.size());
-    for (std::size_t i = 0; i < cells.size(); ++i) by_key[i] = {lattice::pack(cells[i].coord), i};
-    std::sort(by_key.begin(), by_key.end());
-    std::vector<std::uint8_t> promote(cells.size(), 0);
-    for (std::size_t i = 0; i < cells.size(); ++i) {
-        if (!fails[i]) continue;
-        for (int dz = -1; dz <= 1; ++dz)
-            for (int dy = -1; dy <= 1; ++dy)
-                for (int dx = -1; dx <= 1; ++dx) {
-                    const glm::ivec3 q = cells[i].coord + glm::ivec3(dx, dy, dz);
-                    if (glm::any(glm::lessThan(q, glm::ivec3(0)))) continue;
-                    const std::uint64_t key = lattice::pack(q);
-                    auto it = std::lower_bound(by_key.begin(), by_key.end(), std::make_pair(key, std::size_t(0)));
-                    if (it != by_key.end() && it->first == key && cells[it->second].level == 2) promote[it->second] = 1;
-                }
-    }
-    std::vector<std::size_t> out;
+    std::vector<CoarseCell> failing;  // the block relation is symmetric: a cell is promoted when a failing cell is in its block
     for (std::size_t i = 0; i < cells.size(); ++i)
-        if (promote[i]) out.push_back(i);
+        if (fails[i]) failing.push_back(cells[i]);
+    const CellIndex near_failing(failing);
+    std::vector<std::size_t> out;
+    for (std::size_t i = 0; i < cells.size(); ++i) {
+        if (cells[i].level != 2) continue;
+        bool promote = false;
+        for (int dz = -1; dz <= 1 && !promote; ++dz)
+            for (int dy = -1; dy <= 1 && !promote; ++dy)
+                for (int dx = -1; dx <= 1 && !promote; ++dx)
+                    promote = near_failing.level(cells[i].coord + glm::ivec3(dx, dy, dz)) != 0;
+        if (promote) out.push_back(i);
+    }
     return out;
 }
 

@@ -53,12 +53,6 @@ void require_positive(float v, const char* name, const char* why) {
         throw Error(std::string(name) + " must be finite and > 0 (" + why + "), got " + std::to_string(v));
 }
 
-std::string fmt(double v) {
-    char buf[32];
-    std::snprintf(buf, sizeof(buf), "%.3g", v);
-    return buf;
-}
-
 void validate(const Params& p) {
     require_positive(p.particle_radius, "particle radius", "half the particle spacing, world units");
     require_positive(p.kernel_radius, "kernel radius", "in particle radii");
@@ -188,23 +182,21 @@ void count_mesh(const Mesh& m, Stats& s) {
 }
 
 /// The level-2 check (host/level2_check.hpp) on freshly evaluated cells and cube centres, before
-/// continuity: the level-2 cells that fail it become level 3 and get their remaining points.
-/// Returns how many.
-std::size_t promote_failing_cells(OpenCLRuntime& rt, FinePoints& points, std::vector<CoarseCell>& cells,
-                                  const LatticeFrame& frame, const BinnedParticles& bins, float r, float R,
-                                  float tolerance) {
-    std::vector<std::size_t> failing;
-    {
-        const FinePointMap field = map_fine_points(rt, points);
-        failing = cells_failing_level2_check(cells, frame, field, tolerance);
-    }
-    unmap_fine_points(rt, points);
+/// continuity: the level-2 cells that fail it become level 3 and get their remaining points
+/// (`field` is re-mapped then). Returns how many.
+std::size_t promote_failing_cells(OpenCLRuntime& rt, FinePoints& points, FinePointMap& field,
+                                  std::vector<CoarseCell>& cells, const LatticeFrame& frame,
+                                  const BinnedParticles& bins, float r, float R, float tolerance) {
     std::vector<CoarseCell> promoted;
-    for (std::size_t i : failing) {
+    for (std::size_t i : cells_failing_level2_check(cells, frame, field, tolerance)) {
         cells[i].level = 3;
         promoted.push_back(cells[i]);
     }
+    if (promoted.empty()) return 0;
+    field = FinePointMap();
+    unmap_fine_points(rt, points);
     refine_and_evaluate(rt, points, promoted, frame, bins, r, R);
+    field = map_fine_points(rt, points);
     return promoted.size();
 }
 
@@ -223,8 +215,9 @@ FinePointMap close_band(OpenCLRuntime& rt, FinePoints& points, std::vector<Coars
         if (check) insert_points(rt, points, level2_check_points(cells, frame));
         refine_and_evaluate(rt, points, fresh, frame, bins, r, R,
                             check ? ClaimPoints::LevelAndCubeCentres : ClaimPoints::Level);
-        if (check) s.level2_check_cells = promote_failing_cells(rt, points, cells, frame, bins, r, R, level2_tolerance);
         FinePointMap field = map_fine_points(rt, points);
+        if (check)
+            s.level2_check_cells = promote_failing_cells(rt, points, field, cells, frame, bins, r, R, level2_tolerance);
         auto t1 = Clock::now();
         rt.set_stage("band_closure");
         apply_transition_continuity(cells, frame, field);
