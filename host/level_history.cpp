@@ -1,8 +1,6 @@
 // Level history between the frames of a sequence (level_history.hpp).
 #include "level_history.hpp"
 
-#include <algorithm>
-
 #include "lattice.hpp"
 
 namespace trilevel {
@@ -13,9 +11,7 @@ std::uint8_t LevelHistory::previous(glm::ivec3 c, const CoarseBase& base) const 
         rel[a] = std::int64_t(c[a]) + base[std::size_t(a)] - base_[std::size_t(a)];
         if (rel[a] < 0 || rel[a] > lattice::kMaxCoord) return 0;
     }
-    const std::uint64_t key = lattice::pack(std::int32_t(rel[0]), std::int32_t(rel[1]), std::int32_t(rel[2]));
-    auto it = std::lower_bound(levels_.begin(), levels_.end(), key, [](const auto& e, std::uint64_t k) { return e.first < k; });
-    return it != levels_.end() && it->first == key ? it->second : 0;
+    return std::uint8_t(levels_.level(glm::ivec3(std::int32_t(rel[0]), std::int32_t(rel[1]), std::int32_t(rel[2]))));
 }
 
 std::size_t LevelHistory::apply(std::vector<CoarseCell>& cells, const std::vector<float>& curvature,
@@ -48,10 +44,7 @@ LevelHistory::Flips LevelHistory::compare(const std::vector<CoarseCell>& cells, 
 }
 
 void LevelHistory::record(const std::vector<CoarseCell>& cells, const CoarseBase& base) {
-    levels_.clear();
-    levels_.reserve(cells.size());
-    for (const CoarseCell& c : cells) levels_.emplace_back(lattice::pack(c.coord), c.level);
-    std::sort(levels_.begin(), levels_.end());
+    levels_ = CellIndex(cells);
     base_ = base;
     valid_ = true;
 }

@@ -14,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include "cell_index.hpp"
 #include "coarse_cells.hpp"
 
 namespace trilevel {
@@ -24,7 +25,7 @@ using CoarseBase = std::array<std::int64_t, 3>;
 class LevelHistory {
 public:
     /// Forgets the previous frame: the next frame is the first of a sequence.
-    void reset() { levels_.clear(), valid_ = false; }
+    void reset() { levels_ = CellIndex(std::vector<CoarseCell>{}), valid_ = false; }
     bool empty() const { return !valid_; }
 
     /// Hysteresis on the levels the curvature pass chose (paper eq. 3 against `threshold`). A cell
@@ -49,7 +50,7 @@ private:
     /// The previous frame's level of global cell `c + base`, or 0 when it had no such cell.
     std::uint8_t previous(glm::ivec3 c, const CoarseBase& base) const;
 
-    std::vector<std::pair<std::uint64_t, std::uint8_t>> levels_;  ///< (lattice::pack of c - base_), sorted
+    CellIndex levels_{std::vector<CoarseCell>{}};  ///< the previous frame's cells, coordinates relative to base_
     CoarseBase base_{};
     bool valid_ = false;
 };
