@@ -270,7 +270,7 @@ DeviceBuffer cell_buffer(OpenCLRuntime& rt, const std::vector<CoarseCell>& cells
 /// gathered in local memory; cells whose candidates do not fit leave their points to the per-point
 /// kernel. `claim`: which pending points of its cell a work-group takes (scalar_field.cl, CLAIM_*).
 void evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf, std::size_t cell_count,
-                    int claim, const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
+                    ClaimPoints claim, const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
     DeviceBuffer overflow = rt.buffer(sizeof(cl_int), "scalar field overflow flag");
     rt.queue().enqueueFillBuffer(overflow, cl_int{0}, 0, sizeof(cl_int));
     constexpr std::size_t kMaxCellPoints = 729;  // as in scalar_field.cl
@@ -304,7 +304,7 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<Coa
         if (!needs_growth(c, p.hash)) break;
         grow_fine_points(rt, p, std::max(p.hash.capacity * 2, next_pow2(c.inserted * 2 + 1)));
     }
-    evaluate_cells(rt, p, cell_buf, cells.size(), int(claim), frame, b, r, R);
+    evaluate_cells(rt, p, cell_buf, cells.size(), claim, frame, b, r, R);
     rt.finish();
 }
 
@@ -345,7 +345,7 @@ void insert_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<std
                          const BinnedParticles& b, float r, float R) {
     if (keys.empty()) return;
     insert_points(rt, p, keys);
-    evaluate_cells(rt, p, cell_buffer(rt, holders), holders.size(), int(kind), frame, b, r, R);
+    evaluate_cells(rt, p, cell_buffer(rt, holders), holders.size(), kind, frame, b, r, R);
 }
 
 FinePointMap map_fine_points(OpenCLRuntime& rt, FinePoints& p) {

@@ -39,13 +39,13 @@ struct Components {
     }
 };
 
+}  // namespace
+
 std::string fmt(double v) {
     char buf[32];
     std::snprintf(buf, sizeof(buf), "%.3g", v);
     return buf;
 }
-
-}  // namespace
 
 Bounds bounds_of(const float* xyz, std::size_t n) {
     Bounds b;

@@ -11,9 +11,13 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 namespace trilevel {
+
+/// `v` with 3 significant digits (%.3g), for error messages.
+std::string fmt(double v);
 
 /// Axis-aligned bounds of a particle set, in double precision.
 struct Bounds {

@@ -169,7 +169,7 @@ cl::Kernel& OpenCLRuntime::kernel(const std::string& name) {
 void OpenCLRuntime::set_stage(const char* stage) {
     if (!fault_stage_.empty() && fault_stage_ == stage_) maybe_fail("clFinish");  // armed, never fired
     stage_ = stage;
-    if (frames_ended_ == 0) pool_.release_free(false);  // end_frame: a first frame keeps only its loans
+    if (first_frame_) pool_.release_free(false);  // end_frame: a first frame keeps only its loans
 }
 
 void OpenCLRuntime::maybe_fail(const char* call) {
@@ -262,7 +262,7 @@ DeviceBuffer OpenCLRuntime::buffer(std::size_t bytes, const char* what, cl_mem_f
     if (e.capacity < bytes) {
         std::size_t capacity = e.capacity ? std::max(bytes, std::size_t(double(e.capacity) * BufferPool::kGrowth)) : bytes;
         capacity = std::min<std::size_t>(capacity, info_.max_allocation);
-        if (frames_ended_ == 0) pool_.release_free(false, &e);  // end_frame: a first frame keeps only its loans
+        if (first_frame_) pool_.release_free(false, &e);  // end_frame: a first frame keeps only its loans
         make_room(e, capacity, bytes);
         pool_.drop(e);  // before allocating its successor: the old buffer's memory is free first
         pool_.install(e, allocate(e, capacity, what), capacity);

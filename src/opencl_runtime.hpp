@@ -60,7 +60,7 @@ public:
     /// allocation it releases the free buffers, so a single reconstruction holds little more than
     /// its peak_lent_bytes (a one-file CLI run has nothing to reuse them for). From the second frame on free buffers stay pooled for reuse, so a
     /// steady sequence allocates nothing after its first frames.
-    void end_frame() { pool_.end_frame(), ++frames_ended_; }
+    void end_frame() { pool_.end_frame(), first_frame_ = false; }
     /// Releases every pooled buffer (buffers still lent go when their DeviceBuffer does).
     void release_buffers() { pool_.clear(); }
     const BufferPool& pool() const { return pool_; }
@@ -96,7 +96,7 @@ private:
     BufferPool pool_;
     std::uint64_t budget_ = 0, peak_lent_ = 0;
     std::uint64_t ram_room_ = 0;      ///< CPU devices: MemAvailable at reset_budget (0: no check)
-    std::uint64_t frames_ended_ = 0;   ///< frames completed by this runtime (end_frame)
+    bool first_frame_ = true;          ///< no frame has ended yet (end_frame)
     std::uint64_t held_at_reset_ = 0; ///< bytes the pool held at reset_budget
     std::string stage_, fault_stage_;
 };
