@@ -212,6 +212,4 @@ ParticleSet read_bgeo(const ReadRequest& r) {
     return set;
 }
 
-std::vector<float> read_bgeo_points(const std::string& path, const std::string& data) { return read_bgeo({path, data, {}, false}).positions; }
-
 }  // namespace trilevel::io

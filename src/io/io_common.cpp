@@ -151,7 +151,11 @@ std::vector<float> convert_coords(const std::string& path, const char* p, std::s
         check_finite(path, out, where);
         return out;
     }
-    for (std::size_t i = 0; i < count; ++i) out[i] = to_float_checked(path, load_scalar(p + i * size, t, big), i, where.at(i, size));
+    for (std::size_t i = 0; i < count; ++i) {
+        const double v = load_scalar(p + i * size, t, big);
+        // where.at() only for a value that fails (to_float_checked then throws)
+        out[i] = finite_float(v) ? static_cast<float>(v) : to_float_checked(path, v, i, where.at(i, size));
+    }
     return out;
 }
 

@@ -77,14 +77,14 @@ void read_ply_vertices(const std::string& path, PlyValueReader& r, const PlyElem
             if (role[k] == Skip) { r.skip(e.props[k]); continue; }
             const double v = r.next(e.props[k].type);
             if (role[k] >= 3) {
-                v6[role[k]] = static_cast<float>(v);
+                v6[role[k]] = narrow_to_float(v);
             } else if (role[k] >= 0) {
                 v6[role[k]] = to_float_checked(path, v, mesh.positions.size() + role[k]);
             } else if (role[k] == Level) {
                 if (!(v >= 0 && v <= 255)) fail(path, r.where() + ": vertex level " + number_text(v) + " out of range 0..255");
                 mesh.vertex_level.push_back(static_cast<std::uint8_t>(v));
             } else {
-                columns[column++].push_back(static_cast<float>(v));
+                columns[column++].push_back(narrow_to_float(v));
             }
         }
         mesh.positions.insert(mesh.positions.end(), v6, v6 + 3);
@@ -159,7 +159,7 @@ Mesh read_obj_mesh(const std::string& path, const std::string& data) {
             for (int k = 1; k <= 3; ++k) {
                 double v;
                 if (!parse_double(t[k], v)) fail(path, at + ": malformed number '" + std::string(t[k]) + "'");
-                normals.push_back(static_cast<float>(v));
+                normals.push_back(narrow_to_float(v));
             }
         } else if (t[0] == "f") {
             idx.clear();

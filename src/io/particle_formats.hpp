@@ -27,13 +27,6 @@ ParticleSet read_bgeo(const ReadRequest& request);
 ParticleSet read_ply(const ReadRequest& request);
 ParticleSet read_xyz(const ReadRequest& request);
 
-/// Positions only, non-finite coordinates rejected (the form the fuzz targets and tools use).
-std::vector<float> read_vtk_points(const std::string& path, const std::string& data);
-std::vector<float> read_vtu_points(const std::string& path, const std::string& data);
-std::vector<float> read_bgeo_points(const std::string& path, const std::string& data);
-std::vector<float> read_ply_points(const std::string& path, const std::string& data);
-std::vector<float> read_xyz_points(const std::string& path, const std::string& data);
-
 /// read_mesh on a file already in memory: `ext` (ply, obj or vtk) picks the reader, `path` names
 /// the file in messages. Used by read_mesh and the fuzz target (fuzz/).
 Mesh read_mesh_from_memory(const std::string& ext, const std::string& path, const std::string& data);

@@ -21,8 +21,6 @@ ParticleSet read_xyz(const ReadRequest& r) {
     return set;
 }
 
-std::vector<float> read_xyz_points(const std::string& path, const std::string& data) { return read_xyz({path, data, {}, false}).positions; }
-
 AttributeSink::AttributeSink(const ReadRequest& r)
     : path_(r.path), seen_(r.attributes.size(), false), taken_(r.attributes.size(), false) {
     for (const auto& name : r.attributes) attrs_.push_back({name, 0, {}});

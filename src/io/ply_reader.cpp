@@ -196,9 +196,11 @@ void read_binary_vertices(const std::string& path, const std::string& data, cons
             if (s.dst) {
                 w.need(scalar_size(p.type));
                 const double x = load_scalar(data.data() + w.pos, p.type, w.big);
+                // the location text is built only for a value that fails (to_float_checked then throws)
                 (*s.dst)[s.stride * i + s.comp] =
-                    s.coord && !keep_invalid ? to_float_checked(path, x, 3 * i + s.comp, "offset " + std::to_string(w.pos) + ": ")
-                                             : narrow_to_float(x);
+                    s.coord && !keep_invalid && !finite_float(x)
+                        ? to_float_checked(path, x, 3 * i + s.comp, "offset " + std::to_string(w.pos) + ": ")
+                        : narrow_to_float(x);
             }
             w.skip_property(p);
         }
@@ -271,8 +273,6 @@ ParticleSet read_ply(const ReadRequest& r) {
     else read_ascii_vertices(path, r.data, h, vi, slots, r.keep_invalid);
     return set;
 }
-
-std::vector<float> read_ply_points(const std::string& path, const std::string& data) { return read_ply({path, data, {}, false}).positions; }
 
 PlyValueReader::PlyValueReader(const std::string& path, const std::string& data, const PlyHeader& h)
     : path_(path), data_(data), ascii_(h.format == PlyHeader::Ascii), big_(h.format == PlyHeader::BinaryBE),

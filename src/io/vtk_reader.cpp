@@ -92,8 +92,7 @@ public:
             std::vector<std::int64_t> out(count);
             for (std::uint64_t i = 0; i < count; ++i) {
                 const double v = load_scalar(data_.data() + pos_ + i * scalar_size(t), t, true);
-                if (!(v == std::floor(v) && std::fabs(v) <= 9.2e18))  // before the cast, which would overflow
-                    error_at("integer value is not whole or out of range");
+                if (!is_int64(v)) error_at("integer value is not whole or out of range");
                 out[i] = static_cast<std::int64_t>(v);
             }
             advance(count * scalar_size(t));
@@ -105,14 +104,16 @@ public:
             const std::string_view tok = next_token();
             double v;
             if (tok.empty()) error("truncated ASCII data: found " + std::to_string(i) + " of " + std::to_string(count) + " values");
-            if (!parse_double(tok, v) || v != std::floor(v) || std::fabs(v) > 9.2e18)
-                error("malformed integer '" + std::string(tok.substr(0, 40)) + "'");
+            if (!parse_double(tok, v) || !is_int64(v)) error("malformed integer '" + std::string(tok.substr(0, 40)) + "'");
             out[i] = static_cast<std::int64_t>(v);
         }
         return out;
     }
 
 private:
+    /// A whole number that an int64 holds exactly: checked before the cast, which would overflow.
+    static bool is_int64(double v) { return v == std::floor(v) && v >= -0x1p63 && v < 0x1p63; }
+
     std::uint64_t left() const { return data_.size() - std::min<std::size_t>(pos_, data_.size()); }
 
     /// Moves past `bytes` of binary data, counting the newline bytes in it so that line numbers
@@ -427,8 +428,6 @@ ParticleSet read_vtk(const ReadRequest& r) {
     set.attributes = sink.finish(set.size());
     return set;
 }
-
-std::vector<float> read_vtk_points(const std::string& path, const std::string& data) { return read_vtk({path, data, {}, false}).positions; }
 
 Mesh read_vtk_mesh(const std::string& path, const std::string& data) {
     VtkCursor cur(path, data);

@@ -311,8 +311,10 @@ std::vector<float> ascii_array(const std::string& path, std::string_view text, s
         double v;
         if (!parse_double(tokens[i], v))
             fail(path, "offset " + std::to_string(at) + ": " + what + ": malformed number '" + std::string(tokens[i].substr(0, 40)) + "'");
-        out[i] = coords && finite_only ? to_float_checked(path, v, i, "offset " + std::to_string(tokens[i].data() - text.data() + at) + ": ")
-                                       : narrow_to_float(v);
+        // the location text is built only for a value that fails (to_float_checked then throws)
+        out[i] = coords && finite_only && !finite_float(v)
+                     ? to_float_checked(path, v, i, "offset " + std::to_string(tokens[i].data() - text.data() + at) + ": ")
+                     : narrow_to_float(v);
     }
     return out;
 }
@@ -413,7 +415,5 @@ ParticleSet read_vtu(const ReadRequest& r) {
     set.attributes = sink.finish(set.size());
     return set;
 }
-
-std::vector<float> read_vtu_points(const std::string& path, const std::string& data) { return read_vtu({path, data, {}, false}).positions; }
 
 }  // namespace trilevel::io
