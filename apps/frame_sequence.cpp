@@ -41,6 +41,12 @@ bool all_digits(const std::string& s) {
 
 }  // namespace
 
+std::string one_line(std::string s) {
+    std::replace(s.begin(), s.end(), '\n', ' ');
+    std::replace(s.begin(), s.end(), '\r', ' ');
+    return s;
+}
+
 std::vector<Frame> find_frames(const std::string& pattern) {
     const std::filesystem::path p(pattern);
     const std::string name = p.filename().string();
@@ -78,12 +84,6 @@ std::string clock_time(double seconds) {
     if (s >= 3600) std::snprintf(buf, sizeof buf, "%ld:%02ld:%02ld", s / 3600, (s / 60) % 60, s % 60);
     else std::snprintf(buf, sizeof buf, "%ld:%02ld", s / 60, s % 60);
     return buf;
-}
-
-std::string one_line(std::string s) {
-    std::replace(s.begin(), s.end(), '\n', ' ');
-    std::replace(s.begin(), s.end(), '\r', ' ');
-    return s;
 }
 
 /// Progress over the frames to process: a bar redrawn in place on stderr (a terminal), or one line

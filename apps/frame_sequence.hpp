@@ -21,6 +21,9 @@ struct UsageError : Error {
     using Error::Error;
 };
 
+/// `s` with its line breaks turned into spaces: every error is one line on stderr.
+std::string one_line(std::string s);
+
 /// Whether `pattern` names a frame sequence (holds "{}").
 bool is_sequence_pattern(const std::string& pattern);
 

@@ -134,19 +134,6 @@ double total_ms(const trilevel::Stats& s, double wall_ms) {
     return wall_ms;
 }
 
-/// The attributes asked for with --attribute, in that order; Error for one the file did not give.
-std::vector<trilevel::ParticleAttribute> requested_attributes(const std::string& input, const trilevel::ParticleSet& set,
-                                                              const std::vector<std::string>& names) {
-    std::vector<trilevel::ParticleAttribute> out;
-    for (const auto& name : names) {
-        const auto it = std::find_if(set.attributes.begin(), set.attributes.end(), [&](const auto& a) { return a.name == name; });
-        if (it == set.attributes.end())
-            throw trilevel::Error(input + ": no particle attribute '" + name + "' (attributes are read from .vtk, .vtu, .bgeo and .ply files)");
-        out.push_back(*it);
-    }
-    return out;
-}
-
 /// One input file -> one mesh (and stats) file. Prints the summary unless quiet or `result` is
 /// given, which receives a one-line summary and the level changes instead (frame sequences).
 /// `rec` is created once the first input has been read: a bad file fails before OpenCL starts.
@@ -157,14 +144,14 @@ void reconstruct_file(std::optional<trilevel::Reconstructor>& rec, const trileve
     trilevel::ReadOptions read_options;
     read_options.attributes = a.attributes;
     read_options.drop_invalid = a.drop_invalid;
+    // The reader returns the --attribute names in their order (an Error names a missing one).
     const trilevel::ParticleSet particles = trilevel::read_particles(input, read_options);
     if (particles.dropped_invalid > 0)
         std::fprintf(stderr, "warning: %s: dropped %zu particles with NaN/Inf coordinates\n", input.c_str(), particles.dropped_invalid);
     if (particles.size() == 0) throw trilevel::Error(input + ": holds no particles");
-    const auto attributes = requested_attributes(input, particles, a.attributes);
     if (!rec) rec.emplace(a.device);  // compiled kernels and buffers are reused across frames
     trilevel::Stats stats;
-    const trilevel::Mesh mesh = rec->reconstruct(particles.positions.data(), particles.size(), params, &stats, attributes);
+    const trilevel::Mesh mesh = rec->reconstruct(particles.positions.data(), particles.size(), params, &stats, particles.attributes);
     trilevel::MeshWriteOptions options;
     options.color_levels = a.color_levels;
     trilevel::write_mesh(output, mesh, options);
@@ -359,14 +346,9 @@ int run_devices() {
 }
 
 /// One line, whatever the message holds.
-std::string one_line(std::string s) {
-    std::replace(s.begin(), s.end(), '\n', ' ');
-    std::replace(s.begin(), s.end(), '\r', ' ');
-    return s;
-}
 
 int report(const std::string& message, int code) {
-    std::fprintf(stderr, "trilevel: error: %s\n", one_line(message).c_str());
+    std::fprintf(stderr, "trilevel: error: %s\n", trilevel::cli::one_line(message).c_str());
     return code;
 }
 
