@@ -1,14 +1,18 @@
-// Helpers of the [mesh] tests: fields on blocks of coarse cells.
+// Helpers of the [mesh] tests: fields on blocks of coarse cells, closed-mesh checks.
 #pragma once
 
 #include <cstdint>
 #include <functional>
 #include <random>
+#include <string>
 #include <vector>
+
+#include <catch2/catch.hpp>
 
 #include "coarse_cells.hpp"
 #include "fine_point_map.hpp"
 #include "mesh_topology.hpp"
+#include "trilevel/trilevel.hpp"
 
 namespace trilevel::test {
 
@@ -55,6 +59,18 @@ inline double signed_volume(const Mesh& m) {
               double(a[2]) * (double(b[0]) * c[1] - double(b[1]) * c[0])) / 6.0;
     }
     return v;
+}
+
+/// A non-empty mesh, closed and consistently oriented, counter-clockwise seen from outside.
+inline void require_closed(const Mesh& m, const std::string& what) {
+    INFO(what << ": " << m.triangle_count() << " triangles");
+    REQUIRE(m.triangle_count() > 0);
+    const MeshTopologyReport t = mesh_topology_report(m);
+    CHECK(t.boundary_edges == 0);
+    CHECK(t.non_manifold_edges == 0);
+    CHECK(t.orientation_conflicts == 0);
+    REQUIRE(is_closed_and_oriented(m));
+    REQUIRE(signed_volume(m) > 0);  // oriented outwards
 }
 
 }  // namespace trilevel::test

@@ -1,33 +1,19 @@
 // The CLI's --normals and --attribute options: what they write, and their errors.
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <fstream>
-#include <sstream>
 
 #include <glm/glm.hpp>
-#include <sys/wait.h>
 
+#include "cli_test_support.hpp"
 #include "test_support.hpp"
 #include "trilevel/io.hpp"
 
+using trilevel::test::CliResult;
 using trilevel::test::TempDir;
+using trilevel::test::run_cli;
 
 namespace {
-
-struct Run {
-    int code = -1;
-    std::string err;
-};
-
-Run cli(const TempDir& tmp, const std::string& args) {
-    const std::string err = tmp.file("stderr.txt");
-    const int rc = std::system((std::string("'") + TRILEVEL_CLI + "' " + args + " >/dev/null 2>'" + err + "'").c_str());
-    std::ifstream in(err);
-    std::stringstream s;
-    s << in.rdbuf();
-    return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, s.str()};
-}
 
 std::string quoted(const std::string& p) { return "'" + p + "'"; }
 
@@ -56,7 +42,7 @@ TEST_CASE("CLI --normals writes unit normals to PLY, VTK and OBJ", "[cli][normal
         for (const std::string ext : {"ply", "vtk", "obj"}) {
             const std::string out = tmp.file("m." + ext);
             INFO(opt << " ." << ext);
-            const Run r = cli(tmp, "reconstruct " + quoted(tmp.file("s.ply")) + " -r 0.025 " + opt + " -o " + quoted(out));
+            const CliResult r = run_cli(tmp, "reconstruct " + quoted(tmp.file("s.ply")) + " -r 0.025 " + opt + " -o " + quoted(out));
             INFO(r.err);
             REQUIRE(r.code == 0);
             const trilevel::Mesh m = trilevel::read_mesh(out);
@@ -65,7 +51,7 @@ TEST_CASE("CLI --normals writes unit normals to PLY, VTK and OBJ", "[cli][normal
                 REQUIRE(std::hypot(m.normals[3 * v], m.normals[3 * v + 1], m.normals[3 * v + 2]) == Approx(1.0).margin(1e-6));
         }
     // Without the option there are none (and the file is the same as before the option existed).
-    REQUIRE(cli(tmp, "reconstruct " + quoted(tmp.file("s.ply")) + " -r 0.025 -o " + quoted(tmp.file("p.ply"))).code == 0);
+    REQUIRE(run_cli(tmp, "reconstruct " + quoted(tmp.file("s.ply")) + " -r 0.025 -o " + quoted(tmp.file("p.ply"))).code == 0);
     REQUIRE(trilevel::read_mesh(tmp.file("p.ply")).normals.empty());
 }
 
@@ -73,10 +59,10 @@ TEST_CASE("CLI --normals and --attribute errors are one clear line and leave no 
     TempDir tmp;
     trilevel::write_particles(tmp.file("s.ply"), trilevel::generate_scene("sphere", 0.025f, 1));
     const std::string out = tmp.file("m.ply");
-    Run r = cli(tmp, "reconstruct " + quoted(tmp.file("s.ply")) + " -r 0.025 --normals sideways -o " + quoted(out));
+    CliResult r = run_cli(tmp, "reconstruct " + quoted(tmp.file("s.ply")) + " -r 0.025 --normals sideways -o " + quoted(out));
     CHECK(r.code == 2);
     CHECK(r.err == "trilevel: error: --normals must be gradient or area (or given alone), got 'sideways'\n");
-    r = cli(tmp, "reconstruct " + quoted(tmp.file("s.ply")) + " -r 0.025 --attribute velocity -o " + quoted(out));
+    r = run_cli(tmp, "reconstruct " + quoted(tmp.file("s.ply")) + " -r 0.025 --attribute velocity -o " + quoted(out));
     CHECK(r.code == 1);
     CHECK(r.err.rfind("trilevel: error: ", 0) == 0);
     CHECK(r.err.find("s.ply") != std::string::npos);
@@ -90,15 +76,9 @@ TEST_CASE("CLI --attribute velocity interpolates a VTK file's velocities onto PL
     const float r = 0.025f;
     const auto s = trilevel::generate_scene("sphere", r, 1);
     write_vtk_with_velocity(tmp.file("v.vtk"), s);
-    trilevel::ReadOptions ask;
-    ask.attributes = {"velocity"};
-    if (trilevel::read_particles(tmp.file("v.vtk"), ask).attributes.empty()) {
-        WARN("SKIPPED: read_particles does not read VTK attributes yet (the readers work of issue 6)");
-        return;
-    }
     for (const std::string ext : {"ply", "vtk"}) {
         const std::string out = tmp.file("m." + ext);
-        const Run run = cli(tmp, "reconstruct " + quoted(tmp.file("v.vtk")) + " -r 0.025 --normals --attribute velocity -o " + quoted(out));
+        const CliResult run = run_cli(tmp, "reconstruct " + quoted(tmp.file("v.vtk")) + " -r 0.025 --normals --attribute velocity -o " + quoted(out));
         INFO(ext << ": " << run.err);
         REQUIRE(run.code == 0);
         const trilevel::Mesh m = trilevel::read_mesh(out);

@@ -14,9 +14,9 @@
 #include "trilevel/trilevel.hpp"
 
 using namespace trilevel;
-using trilevel::test::signed_volume;
-
+using trilevel::test::require_closed;
 using trilevel::test::same_mesh;
+using trilevel::test::signed_volume;
 
 namespace {
 
@@ -34,17 +34,6 @@ Params params(float r, Mode mode, float cell = 1.0f) {
     p.mode = mode;
     p.cell = cell;
     return p;
-}
-
-void require_closed(const Mesh& m, const std::string& what) {
-    INFO(what);
-    REQUIRE(m.triangle_count() > 0);
-    MeshTopologyReport t = mesh_topology_report(m);
-    CHECK(t.boundary_edges == 0);
-    CHECK(t.non_manifold_edges == 0);
-    CHECK(t.orientation_conflicts == 0);
-    REQUIRE(is_closed_and_oriented(m));
-    REQUIRE(signed_volume(m) > 0);  // counter-clockwise seen from outside
 }
 
 }  // namespace

@@ -10,8 +10,6 @@
 #include <random>
 #include <sstream>
 
-#include <sys/wait.h>
-
 #include "io/particle_formats.hpp"
 #include "io_test_files.hpp"
 #include "cli_test_support.hpp"
@@ -431,10 +429,6 @@ TEST_CASE("truncation sweep: every prefix of every format is an Error or yields 
     CHECK(errors > cuts / 2);
 }
 
-namespace {
-
-}  // namespace
-
 TEST_CASE("CLI: hostile inputs end as one stderr line, a non-zero exit and no output file", "[cli][hostile]") {
     TempDir tmp;
     const auto cases = corpus();
@@ -446,12 +440,10 @@ TEST_CASE("CLI: hostile inputs end as one stderr line, a non-zero exit and no ou
         const std::string f = tmp.file(k.name);
         if (k.bytes == "<dir>") std::filesystem::create_directories(f);
         else write_bytes(f, k.bytes);
-        const std::string cmd = std::string("'") + TRILEVEL_CLI + "' reconstruct '" + f + "' -r 0.025 -q -o '" + out + "' >'" +
-                                tmp.file("o.txt") + "' 2>'" + tmp.file("e.txt") + "'";
-        const int rc = std::system(cmd.c_str());
-        const std::string err = slurp(tmp.file("e.txt"));
+        const CliResult r = run_cli(tmp, "reconstruct '" + f + "' -r 0.025 -q -o '" + out + "'");
+        const std::string& err = r.err;
         INFO("stderr: " << err);
-        CHECK((WIFEXITED(rc) && WEXITSTATUS(rc) != 0));
+        CHECK(r.code > 0);
         CHECK(err.rfind("trilevel: error: " + f + ": ", 0) == 0);
         CHECK(std::count(err.begin(), err.end(), '\n') == 1);
         CHECK(err.find(k.what) != std::string::npos);
@@ -473,32 +465,29 @@ TEST_CASE("CLI: --drop-invalid drops NaN/Inf particles with one warning, all inv
     write_bytes(in, std::string(reinterpret_cast<const char*>(bad.data()), bad.size() * 4));
     write_bytes(clean, std::string(reinterpret_cast<const char*>(block.data()), block.size() * 4));
     auto run = [&](const std::string& input, const std::string& out, const std::string& flags) {
-        const std::string cmd = std::string("'") + TRILEVEL_CLI + "' reconstruct '" + input + "' -r 0.025 " + flags + " -o '" + out +
-                                "' >'" + tmp.file("o.txt") + "' 2>'" + tmp.file("e.txt") + "'";
-        const int rc = std::system(cmd.c_str());
-        return std::make_pair(WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, slurp(tmp.file("e.txt")));
+        return run_cli(tmp, "reconstruct '" + input + "' -r 0.025 " + flags + " -o '" + out + "'");
     };
     // without the flag: the error names the first bad particle
-    auto [rc0, err0] = run(in, tmp.file("no.ply"), "");
-    CHECK(rc0 != 0);
-    CHECK(err0 == "trilevel: error: " + in + ": offset 1200: particle 100: non-finite coordinate (NaN or Inf)\n");
+    const CliResult r0 = run(in, tmp.file("no.ply"), "");
+    CHECK(r0.code != 0);
+    CHECK(r0.err == "trilevel: error: " + in + ": offset 1200: particle 100: non-finite coordinate (NaN or Inf)\n");
     CHECK_FALSE(std::filesystem::exists(tmp.file("no.ply")));
     // with it: one warning line, and the mesh of the 512 valid particles, byte for byte
-    auto [rc1, err1] = run(in, tmp.file("dropped.ply"), "--drop-invalid");
-    REQUIRE(rc1 == 0);
-    CHECK(err1 == "warning: " + in + ": dropped 2 particles with NaN/Inf coordinates\n");
-    CHECK(slurp(tmp.file("o.txt")).find("particles: 512\n") != std::string::npos);
-    auto [rc2, err2] = run(clean, tmp.file("clean.ply"), "--drop-invalid");
-    REQUIRE(rc2 == 0);
-    CHECK(err2.empty());
+    const CliResult r1 = run(in, tmp.file("dropped.ply"), "--drop-invalid");
+    REQUIRE(r1.code == 0);
+    CHECK(r1.err == "warning: " + in + ": dropped 2 particles with NaN/Inf coordinates\n");
+    CHECK(r1.out.find("particles: 512\n") != std::string::npos);
+    const CliResult r2 = run(clean, tmp.file("clean.ply"), "--drop-invalid");
+    REQUIRE(r2.code == 0);
+    CHECK(r2.err.empty());
     const std::string a = slurp(tmp.file("dropped.ply")), b = slurp(tmp.file("clean.ply"));
     CHECK(a.size() > 1000);
     CHECK(a == b);
     // nothing valid: an error, no output
     const std::vector<float> all_bad = {NAN, 0, 0, 0, 0, -INFINITY};
     write_bytes(tmp.file("allbad.xyz"), std::string(reinterpret_cast<const char*>(all_bad.data()), all_bad.size() * 4));
-    auto [rc3, err3] = run(tmp.file("allbad.xyz"), tmp.file("none.ply"), "--drop-invalid");
-    CHECK(rc3 != 0);
-    CHECK(err3 == "trilevel: error: " + tmp.file("allbad.xyz") + ": no valid particles: all 2 have NaN/Inf coordinates\n");
+    const CliResult r3 = run(tmp.file("allbad.xyz"), tmp.file("none.ply"), "--drop-invalid");
+    CHECK(r3.code != 0);
+    CHECK(r3.err == "trilevel: error: " + tmp.file("allbad.xyz") + ": no valid particles: all 2 have NaN/Inf coordinates\n");
     CHECK_FALSE(std::filesystem::exists(tmp.file("none.ply")));
 }

@@ -25,6 +25,7 @@ using namespace trilevel;
 #endif
 #endif
 
+using trilevel::test::same_mesh;
 using trilevel::test::settled_live_buffers;
 using trilevel::test::settled_unpooled_buffers;
 
@@ -97,8 +98,7 @@ TEST_CASE("long run: 200 frames through one Reconstructor keep memory and OpenCL
             if (f > 1)  // a first frame keeps only its loans (OpenCLRuntime::end_frame)
                 REQUIRE(pooled_device_bytes() - pooled_before >= std::int64_t(st.device_memory_bytes));
             if (f == 200) {  // the sequence repeats every 20 frames: frame 200 is frame 20, bit for bit
-                REQUIRE(m.positions == mesh20.positions);
-                REQUIRE(m.triangles == mesh20.triangles);
+                REQUIRE(same_mesh(m, mesh20));
             }
             if (f == 20) {
                 mesh20 = m;
@@ -148,10 +148,6 @@ TEST_CASE("long run: two Reconstructors in two threads give the single-threaded 
         alone_a = rec.reconstruct(a.positions.data(), a.size(), params(r));
         alone_b = rec.reconstruct(b.positions.data(), b.size(), params(r));
     }
-    auto same = [](const Mesh& x, const Mesh& y) {
-        return x.positions == y.positions && x.triangles == y.triangles && x.vertex_level == y.vertex_level &&
-               x.triangle_kind == y.triangle_kind;
-    };
     constexpr int kRounds = 4;
     std::vector<Mesh> out_a(kRounds), out_b(kRounds);
     std::string err_a, err_b;
@@ -171,8 +167,8 @@ TEST_CASE("long run: two Reconstructors in two threads give the single-threaded 
     REQUIRE(err_b.empty());
     for (int i = 0; i < kRounds; ++i) {
         INFO("round " << i);
-        REQUIRE(same(out_a[i], alone_a));
-        REQUIRE(same(out_b[i], alone_b));
+        REQUIRE(same_mesh(out_a[i], alone_a));
+        REQUIRE(same_mesh(out_b[i], alone_b));
     }
     CHECK(settled_live_buffers(live_before) == live_before);  // both pools released with their Reconstructors
 }

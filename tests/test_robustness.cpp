@@ -18,6 +18,7 @@
 
 using namespace trilevel;
 
+using trilevel::test::require_closed;
 using trilevel::test::same_mesh;
 using trilevel::test::settled_unpooled_buffers;
 
@@ -40,13 +41,6 @@ struct ScopedEnv {
     ScopedEnv(const char* n, const char* value) : name(n) { ::setenv(n, value, 1); }
     ~ScopedEnv() { ::unsetenv(name.c_str()); }
 };
-
-void require_closed_nonempty(const Mesh& m, const char* what) {
-    INFO(what << ": " << m.triangle_count() << " triangles");
-    REQUIRE(m.triangle_count() > 0);
-    REQUIRE(is_closed_and_oriented(m));
-    REQUIRE(test::signed_volume(m) > 0.0);  // oriented outwards
-}
 
 /// The API must throw one line naming `name` and giving `why`.
 void require_param_error(const std::vector<float>& xyz, const Params& p, const std::string& name, const std::string& why,
@@ -133,7 +127,7 @@ TEST_CASE("radii outside the float kernels' band are scaled by a power of two, e
     const ParticleSet s = generate_scene("sphere", 0.025f, 2);
     auto& rec = robust_reconstructor();
     const Mesh base = rec.reconstruct(s.positions.data(), s.size(), with_radius(0.025f));
-    require_closed_nonempty(base, "r = 0.025");
+    require_closed(base, "r = 0.025");
     for (int e : {-20, 12}) {
         INFO("scale 2^" << e);
         std::vector<float> x = s.positions;
@@ -152,7 +146,7 @@ TEST_CASE("extreme but legal particle sets give closed meshes in bounded time", 
     const auto start = std::chrono::steady_clock::now();
     const float one[3] = {1.013f, 2.007f, 3.011f};
     const Mesh single = rec.reconstruct(one, 1, with_radius(r));
-    require_closed_nonempty(single, "a single particle");
+    require_closed(single, "a single particle");
 
     SECTION("1000 particles on one point are the single particle's blob") {
         // They have no colour-field gradient at all; counted as one spot they are a splash particle.
@@ -160,7 +154,7 @@ TEST_CASE("extreme but legal particle sets give closed meshes in bounded time", 
         for (int i = 0; i < 1000; ++i) pile.insert(pile.end(), one, one + 3);
         Stats st;
         const Mesh m = rec.reconstruct(pile.data(), 1000, with_radius(r), &st);
-        require_closed_nonempty(m, "1000 particles on one point");
+        require_closed(m, "1000 particles on one point");
         CHECK(st.splash_particles == 1000);
         // The field is |x - p| - r on both (the weights only scale): same triangles, positions equal
         // up to the rounding of the 1000-term weighted mean.
@@ -170,7 +164,7 @@ TEST_CASE("extreme but legal particle sets give closed meshes in bounded time", 
     SECTION("two particles 10^4 r apart are two blobs") {
         const float two[6] = {one[0], one[1], one[2], one[0] + 1e4f * r, one[1], one[2]};
         const Mesh m = rec.reconstruct(two, 2, with_radius(r));
-        require_closed_nonempty(m, "two particles 1e4 r apart");
+        require_closed(m, "two particles 1e4 r apart");
         CHECK(m.triangle_count() >= 2 * 8);  // two separate closed blobs (an octahedron at least)
         std::size_t near = 0;
         for (std::size_t v = 0; v < m.vertex_count(); ++v) near += std::fabs(m.positions[3 * v] - one[0]) < 2 * r;
@@ -198,7 +192,7 @@ TEST_CASE("extreme but legal particle sets give closed meshes in bounded time", 
             const Mesh blob = rec.reconstruct(lone.data(), 1, p);
             Stats st;
             const Mesh m = rec.reconstruct(spread.data(), 200, p, &st);
-            require_closed_nonempty(m, "200 particles over 1e6 r");
+            require_closed(m, "200 particles over 1e6 r");
             CHECK(m.triangle_count() == 200 * blob.triangle_count());
             CHECK(st.surface_cells == 200 * 8);
             CHECK(st.peak_memory_bytes < (std::uint64_t(1) << 30));  // memory follows the particles
@@ -232,8 +226,8 @@ TEST_CASE("a domain split into per-cluster lattices gives the single-lattice mes
         ScopedEnv env("TRILEVEL_MAX_LATTICE_STEPS", "80");
         split = rec.reconstruct(x.data(), n, with_radius(r), &split_stats);
     }
-    require_closed_nonempty(whole, "one lattice");
-    require_closed_nonempty(split, "split domain");
+    require_closed(whole, "one lattice");
+    require_closed(split, "split domain");
     CHECK(split_stats.particles == n);
     CHECK(split_stats.surface_particles == whole_stats.surface_particles);
     CHECK(split_stats.surface_cells == whole_stats.surface_cells);
