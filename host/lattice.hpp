@@ -32,14 +32,20 @@ inline bool in_range(glm::ivec3 p) {
     return p.x >= 0 && p.y >= 0 && p.z >= 0 && p.x <= kMaxCoord && p.y <= kMaxCoord && p.z <= kMaxCoord;
 }
 
-/// Slot hash of a key (the splitmix64 finaliser); identical to trilevel_hash() in hash_table.cl.
+/// Home slot of a key before the mask; identical to trilevel_hash() in hash_table.cl. The key's
+/// 4x4x4 block (low two bits of each axis cleared) goes through the splitmix64 finaliser and its
+/// place in the block fills the low 6 bits: a block's keys share one run of 64 slots, so lookups
+/// of neighbouring points hit a few cache lines instead of one random line each.
 inline std::uint64_t hash(std::uint64_t k) {
+    constexpr std::uint64_t kBlockLocal = 3ull | (3ull << kAxisBits) | (3ull << (2 * kAxisBits));
+    const std::uint64_t in_block = (k & 3ull) | ((k >> (kAxisBits - 2)) & 12ull) | ((k >> (2 * kAxisBits - 4)) & 48ull);
+    k &= ~kBlockLocal;
     k ^= k >> 30;
     k *= 0xbf58476d1ce4e5b9ull;
     k ^= k >> 27;
     k *= 0x94d049bb133111ebull;
     k ^= k >> 31;
-    return k;
+    return (k << 6) | in_block;
 }
 
 /// A vertex lies on the lattice edge from point `p` to p + unit(axis): key = point key | axis << 60.

@@ -9,14 +9,21 @@
 #define AXIS_BITS 20
 #define AXIS_MASK 0xfffffUL
 
-// splitmix64 finaliser, identical to trilevel::lattice::hash().
+// Home slot of a key (before the mask), identical to trilevel::lattice::hash(): the 4x4x4 block
+// of points (or cells) the key lies in goes through the splitmix64 finaliser, and the key's place
+// inside its block fills the low 6 bits. A block's keys then share one run of 64 slots, so the
+// 125 points of a coarse cell or the 27 bins around a particle are a few cache lines of a table
+// far larger than the caches, not one random line each. Results never depend on slots (DESIGN §6).
+#define BLOCK_LOCAL_BITS (3UL | (3UL << AXIS_BITS) | (3UL << (2 * AXIS_BITS)))
 inline ulong trilevel_hash(ulong k) {
+    const ulong in_block = (k & 3UL) | ((k >> (AXIS_BITS - 2)) & 12UL) | ((k >> (2 * AXIS_BITS - 4)) & 48UL);
+    k &= ~BLOCK_LOCAL_BITS;
     k ^= k >> 30;
     k *= 0xbf58476d1ce4e5b9UL;
     k ^= k >> 27;
     k *= 0x94d049bb133111ebUL;
     k ^= k >> 31;
-    return k;
+    return (k << 6) | in_block;
 }
 
 inline ulong pack_key(int3 p) {

@@ -75,6 +75,35 @@ Classified classify(float r, float R, std::uint32_t seed) {
 
 }  // namespace
 
+TEST_CASE("the keys of one 4x4x4 block share a run of 64 slots, on the device as on the host", "[device][hash]") {
+    auto& rt = runtime();
+    const glm::ivec3 corner(4 * 1234, 4 * 77, 4 * 901);
+    std::vector<cl_ulong> in;
+    for (int z = 0; z < 4; ++z)
+        for (int y = 0; y < 4; ++y)
+            for (int x = 0; x < 4; ++x) in.push_back(lattice::pack(corner + glm::ivec3(x, y, z)));
+    const std::size_t capacity = std::size_t{1} << 20;
+    cl::Buffer keys_in(rt.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, in.size() * sizeof(cl_ulong), in.data());
+    cl::Buffer slots(rt.context(), CL_MEM_READ_WRITE, in.size() * sizeof(cl_long));
+    cl::Buffer keys(rt.context(), CL_MEM_READ_WRITE, capacity * sizeof(cl_ulong));
+    cl::Buffer stats(rt.context(), CL_MEM_READ_WRITE, 2 * sizeof(cl_int));
+    rt.queue().enqueueFillBuffer(keys, ~cl_ulong{0}, 0, capacity * sizeof(cl_ulong));
+    rt.queue().enqueueFillBuffer(stats, cl_int{0}, 0, 2 * sizeof(cl_int));
+    auto& k = rt.kernel("hash_insert_keys");
+    k.setArg(0, keys_in); k.setArg(1, cl_uint(in.size())); k.setArg(2, keys); k.setArg(3, cl_ulong(capacity - 1));
+    k.setArg(4, slots); k.setArg(5, stats);
+    rt.run("hash_insert_keys", in.size());
+    rt.finish();
+    const auto slot = read_buffer<cl_long>(rt, slots, in.size());
+    const std::uint64_t run = lattice::hash(in[0]) & (capacity - 1) & ~std::uint64_t{63};
+    for (std::size_t i = 0; i < in.size(); ++i) {
+        CHECK(std::uint64_t(slot[i]) == (lattice::hash(in[i]) & (capacity - 1)));  // an empty table: its home slot
+        CHECK(std::uint64_t(slot[i]) == run + i);  // x fastest, then y, then z inside the run
+    }
+    // The neighbouring block lands elsewhere: blocks, not points, are spread over the table.
+    CHECK((lattice::hash(lattice::pack(corner + glm::ivec3(4, 0, 0))) & (capacity - 1) & ~std::uint64_t{63}) != run);
+}
+
 TEST_CASE("lock-free hash keeps every key exactly once under heavy duplication and grows on overflow", "[device][hash]") {
     auto& rt = runtime();
     const std::size_t n = 2'000'000, distinct = 300'000;
