@@ -33,19 +33,19 @@ inline bool in_range(glm::ivec3 p) {
 }
 
 /// Home slot of a key before the mask; identical to trilevel_hash() in hash_table.cl. The key's
-/// 4x4x4 block (low two bits of each axis cleared) goes through the splitmix64 finaliser and its
-/// place in the block fills the low 6 bits: a block's keys share one run of 64 slots, so lookups
-/// of neighbouring points hit a few cache lines instead of one random line each.
+/// 2x2x2 block (lowest bit of each axis cleared) goes through the splitmix64 finaliser and its
+/// place in the block fills the low 3 bits: a block's keys share one run of 8 slots (one cache
+/// line of keys), so lookups of neighbouring points hit a few lines instead of one each.
 inline std::uint64_t hash(std::uint64_t k) {
-    constexpr std::uint64_t kBlockLocal = 3ull | (3ull << kAxisBits) | (3ull << (2 * kAxisBits));
-    const std::uint64_t in_block = (k & 3ull) | ((k >> (kAxisBits - 2)) & 12ull) | ((k >> (2 * kAxisBits - 4)) & 48ull);
+    constexpr std::uint64_t kBlockLocal = 1ull | (1ull << kAxisBits) | (1ull << (2 * kAxisBits));
+    const std::uint64_t in_block = (k & 1ull) | ((k >> (kAxisBits - 1)) & 2ull) | ((k >> (2 * kAxisBits - 2)) & 4ull);
     k &= ~kBlockLocal;
     k ^= k >> 30;
     k *= 0xbf58476d1ce4e5b9ull;
     k ^= k >> 27;
     k *= 0x94d049bb133111ebull;
     k ^= k >> 31;
-    return (k << 6) | in_block;
+    return (k << 3) | in_block;
 }
 
 /// A vertex lies on the lattice edge from point `p` to p + unit(axis): key = point key | axis << 60.
