@@ -32,14 +32,15 @@ inline bool in_range(glm::ivec3 p) {
     return p.x >= 0 && p.y >= 0 && p.z >= 0 && p.x <= kMaxCoord && p.y <= kMaxCoord && p.z <= kMaxCoord;
 }
 
-/// Home slot of a key before the mask; identical to trilevel_hash() in hash_table.cl. The key's
-/// 2x2x2 block (lowest bit of each axis cleared) goes through the splitmix64 finaliser and its
-/// place in the block fills the low 3 bits: a block's keys share one run of 8 slots (one cache
-/// line of keys), so lookups of neighbouring points hit a few lines instead of one each.
+/// Home slot of a key before the mask; identical to trilevel_hash() in hash_table.cl. The
+/// members of a 2x2x2 block share one run of 8 slots (one cache line of keys); points with all
+/// coordinates even form such blocks on the level-2 lattice. Lookups of neighbouring points then
+/// hit a few lines of a table far larger than the caches instead of one random line each.
 inline std::uint64_t hash(std::uint64_t k) {
-    constexpr std::uint64_t kBlockLocal = 1ull | (1ull << kAxisBits) | (1ull << (2 * kAxisBits));
+    constexpr std::uint64_t kLowestBits = 1ull | (1ull << kAxisBits) | (1ull << (2 * kAxisBits));
+    if ((k & kLowestBits) == 0) k = (k >> 1) | (1ull << 63);  // halves every coordinate
     const std::uint64_t in_block = (k & 1ull) | ((k >> (kAxisBits - 1)) & 2ull) | ((k >> (2 * kAxisBits - 2)) & 4ull);
-    k &= ~kBlockLocal;
+    k &= ~kLowestBits;
     k ^= k >> 30;
     k *= 0xbf58476d1ce4e5b9ull;
     k ^= k >> 27;

@@ -77,11 +77,17 @@ Classified classify(float r, float R, std::uint32_t seed) {
 
 TEST_CASE("the keys of one 2x2x2 block share a run of 8 slots, on the device as on the host", "[device][hash]") {
     auto& rt = runtime();
-    const glm::ivec3 corner(2 * 1234, 2 * 77, 2 * 901);
+    // Block A: the seven points of a 2x2x2 block with an odd coordinate (its all-even corner
+    // belongs to the level-2 lattice). Block B: eight all-even points, a 2x2x2 block of that lattice.
+    const glm::ivec3 a(2 * 1234, 2 * 77, 2 * 901), b(4 * 321, 4 * 55, 4 * 610);
     std::vector<cl_ulong> in;
-    for (int z = 0; z < 2; ++z)
-        for (int y = 0; y < 2; ++y)
-            for (int x = 0; x < 2; ++x) in.push_back(lattice::pack(corner + glm::ivec3(x, y, z)));
+    std::vector<std::uint64_t> place;  // expected offset inside the run
+    for (int i = 0; i < 16; ++i) {
+        const glm::ivec3 o(i & 1, (i >> 1) & 1, (i >> 2) & 1);
+        if (i == 0) continue;  // block A's all-even corner
+        in.push_back(lattice::pack(i < 8 ? a + o : b + 2 * o));
+        place.push_back(std::uint64_t(i & 7));
+    }
     const std::size_t capacity = std::size_t{1} << 20;
     cl::Buffer keys_in(rt.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, in.size() * sizeof(cl_ulong), in.data());
     cl::Buffer slots(rt.context(), CL_MEM_READ_WRITE, in.size() * sizeof(cl_long));
@@ -95,13 +101,13 @@ TEST_CASE("the keys of one 2x2x2 block share a run of 8 slots, on the device as 
     rt.run("hash_insert_keys", in.size());
     rt.finish();
     const auto slot = read_buffer<cl_long>(rt, slots, in.size());
-    const std::uint64_t run = lattice::hash(in[0]) & (capacity - 1) & ~std::uint64_t{7};
+    const auto run_of = [&](std::uint64_t key) { return lattice::hash(key) & (capacity - 1) & ~std::uint64_t{7}; };
     for (std::size_t i = 0; i < in.size(); ++i) {
-        CHECK(std::uint64_t(slot[i]) == (lattice::hash(in[i]) & (capacity - 1)));  // an empty table: its home slot
-        CHECK(std::uint64_t(slot[i]) == run + i);  // x fastest, then y, then z inside the run
+        CHECK(std::uint64_t(slot[i]) == (lattice::hash(in[i]) & (capacity - 1)));  // an empty table: the home slot
+        CHECK(std::uint64_t(slot[i]) == run_of(in[i < 7 ? 0 : 7]) + place[i]);   // x fastest, then y, then z
     }
-    // The neighbouring block lands elsewhere: blocks, not points, are spread over the table.
-    CHECK((lattice::hash(lattice::pack(corner + glm::ivec3(2, 0, 0))) & (capacity - 1) & ~std::uint64_t{7}) != run);
+    CHECK(run_of(in[0]) != run_of(in[7]));
+    CHECK(run_of(lattice::pack(a + glm::ivec3(2, 1, 0))) != run_of(in[0]));  // the next block lands elsewhere
 }
 
 TEST_CASE("lock-free hash keeps every key exactly once under heavy duplication and grows on overflow", "[device][hash]") {
