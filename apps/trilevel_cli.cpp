@@ -15,6 +15,9 @@
 #include <unordered_map>
 
 #include <unistd.h>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 #include <CLI/CLI.hpp>
 
@@ -423,6 +426,13 @@ int run(int argc, char** argv) {
 
 int main(int argc, char** argv) {
     trilevel::io::remove_temporaries_on_signals();  // Ctrl-C never leaves a temporary output behind
+#if defined(__GLIBC__)
+    // Blocks of 1 MiB or more get mappings of their own, returned to the system when freed. Under
+    // glibc's default the threshold grows with each large free (up to 32 MiB), so the particle
+    // arrays freed between stages stayed in the heap and counted towards the peak: the x64 dam
+    // break peaked at 362 MB instead of 316 MB, at the same speed.
+    mallopt(M_MMAP_THRESHOLD, 1 << 20);
+#endif
     try {
         return run(argc, argv);
     } catch (const UsageError& e) {
