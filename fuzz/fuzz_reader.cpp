@@ -1,8 +1,8 @@
 // The fuzz targets' body: one libFuzzer target per reader, TRILEVEL_FUZZ_FORMAT naming the particle
 // format ("vtk", "vtu", "bgeo", "ply", "xyz": the format's reader as read_particles calls it) or
 // "mesh" for read_mesh (PLY, OBJ or legacy VTK, told apart by the first bytes). The input is the
-// whole file, in memory; a particle reader reads it twice, as read_particles would without and with
-// attributes. Without TRILEVEL_FUZZ_FORMAT this is the body of trilevel_fuzz_replay (replay.cpp).
+// whole file, in memory; read_particles_from_memory reads it twice, as read_particles would without
+// and with attributes (and NaN/Inf dropping). Without TRILEVEL_FUZZ_FORMAT this is the body of trilevel_fuzz_replay (replay.cpp).
 // trilevel::Error is the clean rejection; anything else is a finding: a crash, a sanitizer report,
 // another exception (it escapes and aborts), a leak, a timeout, too much memory (run_fuzz.sh sets
 // the limits), or a result that breaks what the readers promise (checked below, failing with abort()).
@@ -23,16 +23,16 @@ namespace {
     std::abort();
 }
 
-/// Readers return whole x, y, z triplets, of finite floats unless NaN/Inf are kept on request.
-void check_positions(const std::vector<float>& xyz, bool finite) {
+/// Readers return whole x, y, z triplets of finite floats (NaN/Inf fail, or are dropped on request).
+void check_positions(const std::vector<float>& xyz) {
     if (xyz.size() % 3 != 0) broken("positions are not x, y, z triplets");
     for (float c : xyz)
-        if (finite && !std::isfinite(c)) broken("non-finite coordinate");
+        if (!std::isfinite(c)) broken("non-finite coordinate");
 }
 
 /// read_mesh returns triangles indexing existing vertices and one level per vertex when any.
 void check_mesh(const trilevel::Mesh& mesh) {
-    check_positions(mesh.positions, true);
+    check_positions(mesh.positions);
     if (mesh.triangles.size() % 3 != 0) broken("triangle indices are not triplets");
     for (std::uint32_t v : mesh.triangles)
         if (v >= mesh.vertex_count()) broken("triangle index out of range");
@@ -42,21 +42,9 @@ void check_mesh(const trilevel::Mesh& mesh) {
         if (a.values.size() != mesh.vertex_count() * static_cast<std::size_t>(a.components)) broken("attribute count");
 }
 
-using Reader = trilevel::ParticleSet (*)(const trilevel::io::ReadRequest&);
-
-/// The particle reader read_particles picks for the format.
-Reader particle_reader(const std::string& format) {
-    using namespace trilevel::io;
-    if (format == "vtk") return read_vtk;
-    if (format == "vtu") return read_vtu;
-    if (format == "bgeo") return read_bgeo;
-    if (format == "ply") return read_ply;
-    if (format == "xyz") return read_xyz;
-    broken("unknown TRILEVEL_FUZZ_FORMAT");
-}
-
-/// Attributes come as whole tuples of 1 or 3 components per particle.
-void check_attributes(const trilevel::ParticleSet& set) {
+/// The `count` distinct attributes asked for come in order, as whole tuples of 1 or 3 components.
+void check_attributes(const trilevel::ParticleSet& set, std::size_t count) {
+    if (set.attributes.size() != count) broken("not one attribute per distinct name asked for");
     for (const auto& a : set.attributes)
         if ((a.components != 1 && a.components != 3) || a.values.size() != set.size() * a.components)
             broken("attribute values do not match the particle count");
@@ -68,20 +56,22 @@ void check_error(const trilevel::Error& e) {
     if (msg.rfind("fuzz.", 0) != 0 || msg.find('\n') != std::string::npos) broken("error message not one line naming the file");
 }
 
-/// Both ways read_particles uses a reader: positions only with NaN/Inf an error, and with the
-/// attributes the seeds carry asked for and NaN/Inf kept (ReadOptions::drop_invalid).
+/// read_particles' two common uses, from memory: positions only, NaN/Inf an error; and the
+/// attributes the seeds carry (one asked twice) with NaN/Inf particles dropped (ReadOptions).
 void fuzz_particles(const std::string& format, const std::string& data) {
     const std::string path = "fuzz." + format;
-    const Reader read = particle_reader(format);
     try {
-        check_positions(read({path, data, {}, false}).positions, true);
+        check_positions(trilevel::io::read_particles_from_memory(format, path, data, {}).positions);
     } catch (const trilevel::Error& e) {
         check_error(e);
     }
     try {
-        const auto set = read({path, data, {"velocity", "density"}, true});
-        check_positions(set.positions, false);
-        check_attributes(set);
+        trilevel::ReadOptions options;
+        options.attributes = {"velocity", "density", "velocity"};
+        options.drop_invalid = true;
+        const auto set = trilevel::io::read_particles_from_memory(format, path, data, options);
+        check_positions(set.positions);
+        check_attributes(set, 2);
     } catch (const trilevel::Error& e) {
         check_error(e);
     }

@@ -27,6 +27,12 @@ ParticleSet read_bgeo(const ReadRequest& request);
 ParticleSet read_ply(const ReadRequest& request);
 ParticleSet read_xyz(const ReadRequest& request);
 
+/// read_particles on a file already in memory: `ext` (vtk, vtu, bgeo, ply or xyz) picks the reader,
+/// `path` names the file in messages. Used by read_particles and the fuzz targets (fuzz/), so that
+/// these also cover repeated attribute names and dropping NaN/Inf particles.
+ParticleSet read_particles_from_memory(const std::string& ext, const std::string& path, const std::string& data,
+                                       const ReadOptions& options);
+
 /// read_mesh on a file already in memory: `ext` (ply, obj or vtk) picks the reader, `path` names
 /// the file in messages. Used by read_mesh and the fuzz target (fuzz/).
 Mesh read_mesh_from_memory(const std::string& ext, const std::string& path, const std::string& data);

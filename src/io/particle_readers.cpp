@@ -86,22 +86,28 @@ void drop_invalid(const std::string& path, ParticleSet& set) {
     if (n > 0 && kept == 0) fail(path, "no valid particles: all " + std::to_string(n) + " have NaN/Inf coordinates");
 }
 
-}  // namespace
-}  // namespace io
+using Reader = ParticleSet (*)(const ReadRequest&);
 
-ParticleSet read_particles(const std::string& path, const ReadOptions& options) {
-    using namespace io;
-    require_file(path);  // a missing file is reported as such, whatever its name
-    const std::string ext = extension_of(path);
-    using Reader = ParticleSet (*)(const ReadRequest&);
-    Reader reader = nullptr;
-    if (ext == "vtk") reader = read_vtk;
-    else if (ext == "vtu") reader = read_vtu;
-    else if (ext == "bgeo") reader = read_bgeo;
-    else if (ext == "ply") reader = read_ply;
-    else if (ext == "xyz") reader = read_xyz;
-    else fail(path, "unknown particle file extension '" + ext + "', expected .vtk, .vtu, .bgeo, .ply or .xyz");
-    const std::string data = read_file(path);
+/// The reader of a particle file extension, or nullptr for an unknown one.
+Reader particle_reader(const std::string& ext) {
+    if (ext == "vtk") return read_vtk;
+    if (ext == "vtu") return read_vtu;
+    if (ext == "bgeo") return read_bgeo;
+    if (ext == "ply") return read_ply;
+    if (ext == "xyz") return read_xyz;
+    return nullptr;
+}
+
+[[noreturn]] void unknown_extension(const std::string& path, const std::string& ext) {
+    fail(path, "unknown particle file extension '" + ext + "', expected .vtk, .vtu, .bgeo, .ply or .xyz");
+}
+
+}  // namespace
+
+ParticleSet read_particles_from_memory(const std::string& ext, const std::string& path, const std::string& data,
+                                       const ReadOptions& options) {
+    const Reader reader = particle_reader(ext);
+    if (!reader) unknown_extension(path, ext);
     ReadRequest request{path, data, {}, options.drop_invalid};
     for (const auto& name : options.attributes)  // a name asked twice is read once
         if (std::find(request.attributes.begin(), request.attributes.end(), name) == request.attributes.end())
@@ -109,6 +115,15 @@ ParticleSet read_particles(const std::string& path, const ReadOptions& options) 
     ParticleSet set = reader(request);
     if (options.drop_invalid) drop_invalid(path, set);
     return set;
+}
+
+}  // namespace io
+
+ParticleSet read_particles(const std::string& path, const ReadOptions& options) {
+    io::require_file(path);  // a missing file is reported as such, whatever its name
+    const std::string ext = io::extension_of(path);
+    if (!io::particle_reader(ext)) io::unknown_extension(path, ext);  // before reading the whole file
+    return io::read_particles_from_memory(ext, path, io::read_file(path), options);
 }
 
 }  // namespace trilevel
