@@ -9,6 +9,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <pybind11/numpy.h>
@@ -55,7 +56,8 @@ std::size_t rows_of_three(const Array<T>& a, const char* name) {
     return std::size_t(a.shape(0));
 }
 
-/// The keyword arguments of reconstruct() besides positions, particle_radius and device.
+/// The keyword arguments of reconstruct() besides positions, particle_radius and device, in the
+/// order of define_reconstruct's argument list (OptionTypes lists their types).
 struct ReconstructOptions {
     std::string mode = "adaptive";
     float cell = 1.0f;
@@ -171,22 +173,38 @@ struct PyReconstructor {
     std::mutex mutex;
 };
 
-/// Calls `define` with the argument list shared by Reconstructor.reconstruct and reconstruct();
-/// the C++ signatures take them in this order, then ReconstructOptions' fields.
-template <class Define>
-void with_reconstruct_args(Define define) {
-    define(py::arg("positions"), py::arg("particle_radius"), py::kw_only(), py::arg("mode") = "adaptive",
-           py::arg("cell") = 1.0f, py::arg("kernel_radius") = 4.0f, py::arg("curvature_threshold") = 0.0f,
-           py::arg("level2_tolerance") = 0.0f, py::arg("memory_limit") = 0, py::arg("level_hysteresis") = 0.0f, py::arg("normals") = py::none(),
-           py::arg("attributes") = py::none(), py::arg("return_levels") = false);
-}
+/// The types of ReconstructOptions' fields, in order: the bound functions take these after
+/// positions and particle_radius and build the struct from them (aggregate initialisation).
+using OptionTypes = std::tuple<std::string, float, float, float, float, std::uint64_t, float, std::optional<std::string>,
+                               std::optional<py::dict>, bool>;
 
-ReconstructOptions options(std::string mode, float cell, float kernel_radius, float curvature_threshold,
-                           float level2_tolerance, std::uint64_t memory_limit, float level_hysteresis, std::optional<std::string> normals,
-                           std::optional<py::dict> attributes, bool return_levels) {
-    return {std::move(mode),    cell,         kernel_radius,    curvature_threshold,
-            level2_tolerance,   memory_limit, level_hysteresis,
-            std::move(normals), std::move(attributes), return_levels};
+/// Defines Reconstructor.reconstruct (on `cls`) and reconstruct() (on `m`, with a device) with the
+/// keyword arguments below, which name ReconstructOptions' fields in order with their defaults.
+template <class... Option>
+void define_reconstruct(py::class_<PyReconstructor>& cls, py::module_& m, const char* method_doc, const char* function_doc,
+                        std::tuple<Option...>*) {
+    const auto args = std::make_tuple(
+        py::arg("positions"), py::arg("particle_radius"), py::kw_only(), py::arg("mode") = "adaptive",
+        py::arg("cell") = 1.0f, py::arg("kernel_radius") = 4.0f, py::arg("curvature_threshold") = 0.0f,
+        py::arg("level2_tolerance") = 0.0f, py::arg("memory_limit") = 0, py::arg("level_hysteresis") = 0.0f,
+        py::arg("normals") = py::none(), py::arg("attributes") = py::none(), py::arg("return_levels") = false);
+    std::apply([&](auto... a) {
+        cls.def("reconstruct",
+                [](PyReconstructor& rec, const Array<float>& positions, float particle_radius, Option... option) {
+                    return rec.reconstruct(positions, particle_radius, ReconstructOptions{std::move(option)...});
+                },
+                method_doc, a...);
+        m.def("reconstruct",
+              [](const Array<float>& positions, float particle_radius, Option... option, int device) {
+                  std::unique_ptr<PyReconstructor> rec;
+                  {
+                      py::gil_scoped_release nogil;
+                      rec = std::make_unique<PyReconstructor>(device);
+                  }
+                  return rec->reconstruct(positions, particle_radius, ReconstructOptions{std::move(option)...});
+              },
+              function_doc, a..., py::arg("device") = -1);
+    }, args);
 }
 
 constexpr const char* kReconstructDoc = R"(Reconstructs the closed surface mesh of a particle set.
@@ -242,43 +260,11 @@ PYBIND11_MODULE(trilevel, m) {
              "kernel_radius, mode or cell resets the history too.")
         .def_property_readonly("device", [](const PyReconstructor& r) { return device_dict(r.rec.device()); },
                                "The OpenCL device in use, as a dict like the entries of trilevel.devices().");
-    with_reconstruct_args([&](auto... args) {
-        cls.def(
-            "reconstruct",
-            [](PyReconstructor& rec, const Array<float>& positions, float particle_radius, std::string mode, float cell,
-               float kernel_radius, float curvature_threshold, float level2_tolerance, std::uint64_t memory_limit,
-               float level_hysteresis, std::optional<std::string> normals, std::optional<py::dict> attributes,
-               bool return_levels) {
-                return rec.reconstruct(positions, particle_radius,
-                                       options(std::move(mode), cell, kernel_radius, curvature_threshold,
-                                               level2_tolerance, memory_limit, level_hysteresis, std::move(normals), std::move(attributes),
-                                               return_levels));
-            },
-            kReconstructDoc, args...);
-    });
-
     static const std::string one_shot_doc =
         std::string(kReconstructDoc) +
         "\n\ndevice: as for Reconstructor. For frame sequences, reuse a trilevel.Reconstructor instead: it "
         "compiles the kernels once (and remembers the levels for level_hysteresis).";
-    with_reconstruct_args([&](auto... args) {
-        m.def(
-            "reconstruct",
-            [](const Array<float>& positions, float particle_radius, std::string mode, float cell, float kernel_radius,
-               float curvature_threshold, float level2_tolerance, std::uint64_t memory_limit, float level_hysteresis,
-               std::optional<std::string> normals, std::optional<py::dict> attributes, bool return_levels, int device) {
-                std::unique_ptr<PyReconstructor> rec;
-                {
-                    py::gil_scoped_release nogil;
-                    rec = std::make_unique<PyReconstructor>(device);
-                }
-                return rec->reconstruct(positions, particle_radius,
-                                        options(std::move(mode), cell, kernel_radius, curvature_threshold,
-                                                level2_tolerance, memory_limit, level_hysteresis, std::move(normals),
-                                                std::move(attributes), return_levels));
-            },
-            one_shot_doc.c_str(), args..., py::arg("device") = -1);
-    });
+    define_reconstruct(cls, m, kReconstructDoc, one_shot_doc.c_str(), static_cast<OptionTypes*>(nullptr));
 
     m.def("devices", [] {
         py::list out;
