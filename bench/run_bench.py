@@ -150,6 +150,12 @@ def machine_flops(cache):
 # Tools
 # ---------------------------------------------------------------------------------------------
 
+def splashsurf_cmd(splashsurf, path, radius, threads, out):
+    """splashsurf with the issue's settings: smoothing length 2r, cube size r, iso 0.6."""
+    return list(splashsurf) + ["reconstruct", path, "-r", str(radius), "-l", "2.0", "-c", "1.0", "-t", "0.6",
+                               "-n", str(threads), "-q", "-o", out]
+
+
 def make_tools(args, trilevel, splashsurf, openvdb):
     tools = []
 
@@ -164,9 +170,8 @@ def make_tools(args, trilevel, splashsurf, openvdb):
     tri("trilevel-uniform1", ["--mode", "uniform", "--cell", "1"])
     tri("trilevel-uniform2", ["--mode", "uniform", "--cell", "2"])
     if splashsurf:
-        tools.append(dict(name="splashsurf", kind="splashsurf", cmd=lambda ds, out, stats: [
-            splashsurf, "reconstruct", ds["path"], "-r", str(ds["radius"]), "-l", "2.0", "-c", "1.0",
-            "-t", "0.6", "-n", "2", "-q", "-o", out]))
+        tools.append(dict(name="splashsurf", kind="splashsurf", cmd=lambda ds, out, stats: splashsurf_cmd(
+            [splashsurf], ds["path"], ds["radius"], 2, out)))
     if openvdb:
         for name, rad, ada, ero in (("openvdb-a0", 1.0, 0.0, 0.0), ("openvdb-a0.5", 1.0, 0.5, 0.0),
                                     ("openvdb-2r-erode", 2.0, 0.0, 1.0)):

@@ -10,7 +10,7 @@ pool-and-drop); each comes with its particle radius below. Every configuration r
 warm-up (fills the driver's kernel cache), then all run interleaved --reps times. Wall time is
 the whole process as a user sees it (file read and write included), peak memory the child's max
 RSS (wait4); trilevel's own stage times come from its --stats JSON of the last repetition.
-Only the standard library.
+Only the standard library (and run_bench.py's helpers beside it).
 """
 import argparse
 import json
@@ -20,7 +20,9 @@ import statistics
 import subprocess
 import sys
 import tempfile
-import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from run_bench import ply_counts, run_timed, splashsurf_cmd  # noqa: E402  (one timing and counting code)
 
 DATASETS = [
     ("db23", "dam_break_frame_23_24389_particles.bgeo", 0.025),
@@ -28,30 +30,6 @@ DATASETS = [
     ("db23x8", "dam_break_frame_23_24389_particles_resample8.bgeo", 0.0125),
     ("db23x64", "dam_break_frame_23_24389_particles_resample64.bgeo", 0.00625),
 ]
-
-
-def timed(cmd, env=None):
-    """(wall s, peak RSS bytes, exit code) of one child process."""
-    t0 = time.perf_counter()
-    p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
-    _, status, ru = os.wait4(p.pid, 0)
-    wall = time.perf_counter() - t0
-    err = p.stderr.read().decode(errors="replace").strip()
-    code = os.waitstatus_to_exitcode(status)
-    if code != 0:
-        print(f"  failed ({code}): {' '.join(cmd)}: {err[-300:]}", file=sys.stderr)
-    return wall, ru.ru_maxrss * 1024, code
-
-
-def ply_faces(path):
-    with open(path, "rb") as f:
-        for _ in range(200):
-            parts = f.readline().decode("ascii", "replace").split()
-            if parts[:2] == ["element", "face"]:
-                return int(parts[2])
-            if parts == ["end_header"]:
-                break
-    return None
 
 
 def devices(trilevel):
@@ -83,8 +61,7 @@ def configs(args, tmp):
         if args.splashsurf:
             for n in args.threads.split(","):
                 label = f"splashsurf -n {n}"
-                cmd = shlex.split(args.splashsurf) + ["reconstruct", src, "-r", str(r), "-l", "2.0", "-c", "1.0",
-                                                      "-t", "0.6", "-n", n, "-q", "-o", os.path.join(tmp, "out.ply")]
+                cmd = splashsurf_cmd(shlex.split(args.splashsurf), src, r, n, os.path.join(tmp, "out.ply"))
                 out.append((label, name, cmd, None))
     return out
 
@@ -98,6 +75,7 @@ def main():
     ap.add_argument("--threads", default="2")
     ap.add_argument("--devices", default="", help="comma-separated device indices (default: all)")
     ap.add_argument("--out", default="")
+    ap.add_argument("--timeout", type=float, default=600, help="seconds per run before it is killed")
     args = ap.parse_args()
     tmp = tempfile.mkdtemp(prefix="trilevel-same-machine-")
     runs = configs(args, tmp)
@@ -105,12 +83,15 @@ def main():
     extra = {}
     for rep in range(args.reps + 1):  # repetition 0 is the warm-up
         for i, (label, ds, cmd, stats) in enumerate(runs):
-            wall, rss, code = timed(cmd)
+            log = os.path.join(tmp, "stderr.txt")
+            wall, rss, code = run_timed(cmd, args.timeout, os.devnull, log)
             if code != 0:
+                with open(log, errors="replace") as f:
+                    print(f"  failed ({code}): {' '.join(cmd)}: {f.read().strip()[-300:]}", file=sys.stderr)
                 continue
             if rep > 0:
                 results[i].append((wall, rss))
-            extra[i] = (ply_faces(os.path.join(tmp, "out.ply")), json.load(open(stats)) if stats else None)
+            extra[i] = (ply_counts(os.path.join(tmp, "out.ply"))[1], json.load(open(stats)) if stats else None)
     lines = ["| dataset | tool | wall min (s) | wall median (s) | peak RSS (MB) | triangles | closed | "
              "trilevel stages (ms) |", "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     for i, (label, ds, cmd, stats) in enumerate(runs):

@@ -15,6 +15,7 @@
 #include "device_stages.hpp"
 #include "domain_split.hpp"
 #include "edge_refinement.hpp"
+#include "io/io_common.hpp"
 #include "level2_check.hpp"
 #include "level_history.hpp"
 #include "opencl_runtime.hpp"
@@ -319,17 +320,11 @@ std::uint64_t host_budget(const Params& p) {
     return avail;  // 0: unknown, no check
 }
 
-std::string human_bytes(double bytes) {
-    const char* unit[] = {"B", "KB", "MB", "GB", "TB"};
-    int u = 0;
-    while (bytes >= 1000 && u < 4) bytes /= 1000, ++u;
-    return fmt(bytes) + " " + unit[u];
-}
-
 /// Fails before a large host allocation that would not fit the budget (DESIGN §4).
 void check_host(double bytes, double budget, const std::string& what) {
     if (budget > 0 && bytes > budget)
-        throw Error(what + " needs ~" + human_bytes(bytes) + " of host memory, over the budget of " + human_bytes(budget) +
+        throw Error(what + " needs ~" + io::byte_size_text(std::uint64_t(bytes)) + " of host memory, over the budget of " +
+                    io::byte_size_text(std::uint64_t(budget)) +
                     " (--memory-limit or the available RAM); use a larger cell or a smaller domain");
 }
 
