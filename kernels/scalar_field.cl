@@ -60,10 +60,10 @@ __kernel void scalar_field(__global const uint* pending, uint count, __global co
     FOR_EACH_NEIGHBOUR_BIN(x, inv_cell, bin_keys, bin_mask, range, sorted, {
         float3 y = pj.xyz - x.xyz;
         float d2 = dot(y, y);
-        if (d2 < R2) {
-            float q = 1.0f - d2 * inv_R2;
+        float q = 1.0f - d2 * inv_R2;
+        if (q > SUPPORT_CUT) {  // the support's cut rim (src/stage_constants.hpp)
             float k = q * q * q;
-            float3 gk = (6.0f * q * q * inv_R2) * y;  // -6 q^2 (x - x_j) / R^2
+            float3 gk = ((6.0f * inv_R2) * q * q) * y;  // -6 q^2 (x - x_j) / R^2, rounded as in scalar_field_cells
             K += k;
             S += k * y;
             G += gk;
@@ -98,13 +98,19 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
                                  float inv_cell, __global const ulong* bin_keys, ulong bin_mask,
                                  __global const uint2* range, float r, float R, volatile __global int* overflow,
                                  __local float4* cand, __local uint* bin_first, __local uint* bin_slot,
-                                 __local uint* count, __local uint* claimed, __local uint* claimed_count) {
+                                 __local uint* count, __local uint* claimed, __local uint* claimed_count,
+                                 int cells_are_bins) {
     const int4 c = cells[get_group_id(0)];
     const uint lid = get_local_id(0), lsize = get_local_size(0);
+    // With the default kernel radius the coarse cells are the particle bins (edge R = 4r, one
+    // origin): the particles inside the cut support of the cell's points are in the 27 bins around
+    // it (SUPPORT_CUT). The float box below lands on bin faces there and took 4 or 5 bins per axis,
+    // 2.5x the candidates; for other radii its extra bins only add zeros.
     const float3 lo = convert_float3(c.xyz * coarse_steps) * step - R;
     const float3 hi = convert_float3(c.xyz * coarse_steps + coarse_steps) * step + R;
-    const uint n_cand = gather_candidates(convert_int3_rtn(lo * inv_cell), convert_int3_rtn(hi * inv_cell), sorted,
-                                          bin_keys, bin_mask, range, cand, bin_first, bin_slot, count);
+    const int3 blo = cells_are_bins ? c.xyz - 1 : convert_int3_rtn(lo * inv_cell);
+    const int3 bhi = cells_are_bins ? c.xyz + 1 : convert_int3_rtn(hi * inv_cell);
+    const uint n_cand = gather_candidates(blo, bhi, sorted, bin_keys, bin_mask, range, cand, bin_first, bin_slot, count);
     const int side = coarse_steps + 1;
     const int points = side * side * side;
     if (n_cand > MAX_CANDIDATES || points > MAX_CELL_POINTS) {
@@ -142,8 +148,8 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
             const float4 pj = cand[j];
             const float8 yx = pj.x - X, yy = pj.y - Y, yz = pj.z - Z;
             const float8 d2 = yx * yx + yy * yy + yz * yz;
-            const int8 in = d2 < R2;
-            const float8 q = select((float8)(0.0f), 1.0f - d2 * inv_R2, in);  // 0 outside R: adds nothing
+            const float8 q0 = 1.0f - d2 * inv_R2;
+            const float8 q = select((float8)(0.0f), q0, q0 > SUPPORT_CUT);  // 0 beyond the cut: adds nothing
             const float8 k = q * q * q;
             const float8 g = (6.0f * inv_R2) * q * q;
             const float8 gx = g * yx, gy = g * yy, gz = g * yz;

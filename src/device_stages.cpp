@@ -281,6 +281,7 @@ void evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf
     set_candidate_args(rt, k, 15);
     k.setArg(19, cl::Local(kMaxCellPoints * sizeof(cl_uint)));
     k.setArg(20, cl::Local(sizeof(cl_uint)));
+    k.setArg(21, cl_int(float(frame.coarse_steps) * frame.step == b.cell));  // coarse cells are the bins
     rt.run_groups("scalar_field_cells", cell_count, kCellGroup);
     if (read_buffer<cl_int>(rt, overflow, 1)[0]) evaluate_pending(rt, p, frame, b, r, R);
 }

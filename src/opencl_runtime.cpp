@@ -105,7 +105,7 @@ std::string build_options(std::size_t max_candidates) {
     o << "-cl-std=CL1.2 -DMAX_CANDIDATES=" << max_candidates << " -DSURFACE_GRADIENT=" << constants::kSurfaceGradient << "f"
       << " -DSPLASH_NEIGHBOURS=" << constants::kSplashNeighbours
       << " -DTHIN_NEIGHBOURS=" << constants::kThinNeighbours << " -DSAME_SPOT=" << constants::kSameSpot << "f" << " -DEV_LOW=" << constants::kEvLow << "f"
-      << " -DEV_HIGH=" << constants::kEvHigh << "f";
+      << " -DEV_HIGH=" << constants::kEvHigh << "f" << " -DSUPPORT_CUT=" << constants::kSupportCut << "f";
     return o.str();
 }
 

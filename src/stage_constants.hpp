@@ -43,6 +43,13 @@ constexpr float kSplashBoxHalf = 2.0f;
 /// Calibrated default of the curvature threshold (README, "Choosing the threshold").
 constexpr float kDefaultCurvatureThreshold = 4.0f;
 
+/// The scalar field's support ends where q = 1 - s^2 falls to kSupportCut (s = |x - x_j| / R above
+/// 0.999), not at s = 1: k_j there is under 1e-8 of its peak. The cut keeps every particle a fine
+/// point sees R/1000 inside the 27 particle bins around the point's coarse cell whatever the float
+/// rounding of binning (up to 8000 bins from the lattice origin), so the per-cell kernel gathers
+/// those 27 bins instead of 4-5 per axis, and a point shared by cells gets the same bits from each.
+constexpr float kSupportCut = 1.0f / 512.0f;
+
 /// Solenthaler et al. 2007 eigenvalue thresholds (DESIGN §3.3).
 constexpr float kEvLow = 0.4f;
 constexpr float kEvHigh = 3.5f;

@@ -334,6 +334,7 @@ FieldSample field_from_offsets(const glm::dvec3* y, std::size_t count, double r,
     glm::dmat3 ygk(0.0);  // column-major: ygk[b][a] = sum y_a (grad k)_b
     for (std::size_t j = 0; j < count; ++j) {
         const double u = 1.0 - glm::dot(y[j], y[j]) / (R * R);
+        if (u <= double(constants::kSupportCut)) continue;  // the support's cut rim (stage_constants.hpp)
         const double k = u * u * u;
         const glm::dvec3 grad = 6.0 * u * u * y[j] / (R * R);  // grad k_j = -6 (1 - s^2)^2 (x - x_j) / R^2
         s.K += k;
