@@ -2,6 +2,7 @@
 // lock-free hash under heavy duplication.
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <random>
 #include <set>
 
@@ -293,4 +294,38 @@ TEST_CASE("scalar field on fine points matches the C++ reference, each point eva
                                             << " rim points)");
     CHECK(worst < 1e-3 * r);
     CHECK(rim < pts.size() / 20);
+}
+
+TEST_CASE("a fine point gets the same bits whichever of its cells evaluates it", "[device][scalar_field]") {
+    auto& rt = runtime();
+    const float r = 0.025f, R = 4 * r;
+    // An exact lattice of spacing 2r, lattice points every r: many particles lie exactly R from a
+    // point, on a bin face, where float rounding decides what a cell's gather sees.
+    std::vector<glm::vec3> x;
+    for (int k = 0; k < 8; ++k)
+        for (int j = 0; j < 6; ++j)
+            for (int i = 0; i < 10; ++i) x.push_back(glm::vec3(12 * r) + 2.0f * r * glm::vec3(i, j, k));
+    const BinnedParticles b = bin_particles(rt, as_vec4(x), R);
+    const ParticleClasses c = classify_particles(rt, b, r, R);
+    const SurfaceCells sc = surface_cells(rt, b, c, r, R, 4 * r, 1e9f, 3);  // every cell level 3
+    REQUIRE(sc.cells.size() > 50);
+    LatticeFrame frame;
+    frame.step = r;
+    frame.coarse_steps = 4;
+    // In reverse order the other cell of each shared point tends to claim it first.
+    const std::vector<CoarseCell> reversed(sc.cells.rbegin(), sc.cells.rend());
+    FinePoints forward_points, reversed_points;
+    refine_and_evaluate(rt, forward_points, sc.cells, frame, b, r, R);
+    refine_and_evaluate(rt, reversed_points, reversed, frame, b, r, R);
+    const FinePointMap forward = read_fine_points(rt, forward_points), backward = read_fine_points(rt, reversed_points);
+    std::size_t points = 0;
+    for (std::size_t s = 0; s < forward.capacity(); ++s) {
+        const std::uint64_t key = forward.keys()[s];
+        if (key == lattice::kEmptyKey) continue;
+        const float* other = backward.find(key);
+        REQUIRE(other != nullptr);
+        REQUIRE(std::memcmp(&forward.values()[s], other, sizeof(float)) == 0);
+        ++points;
+    }
+    CHECK(points == forward_points.inserted);
 }
