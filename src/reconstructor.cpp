@@ -293,7 +293,9 @@ struct Reconstructor::Impl {
     float user_radius = 0.0f;  ///< the radius as given, for messages (the pipeline may run scaled)
     Mesh frame(const float* xyz, std::size_t n, const Params& p, Stats& s);
     Mesh domain(const float* xyz, std::size_t n, const Params& p, Stats& s, const Bounds& b);
-    Mesh run(const float* xyz, std::size_t n, const Params& p, const Grid& g, Stats& s);
+    /// `keep_levels`: record this frame's levels for the next one (off for the groups of a split
+    /// domain, each on a lattice of its own).
+    Mesh run(const float* xyz, std::size_t n, const Params& p, const Grid& g, Stats& s, bool keep_levels = true);
     void remember_levels(const std::vector<CoarseCell>& cells, const Grid& g, const Params& p, Stats& s);
 };
 
@@ -403,8 +405,8 @@ Mesh Reconstructor::Impl::domain(const float* xyz, std::size_t n, const Params& 
     Mesh mesh;
     std::vector<float> part;
     bool closed = true;  // the groups' meshes share no vertex: the union is closed when each is
+    history.reset();  // each group has a lattice of its own: no level history across them or frames
     for (const auto& members : groups) {
-        history.reset();  // each group has a lattice of its own: no level history across them
         part.resize(3 * members.size());
         for (std::size_t i = 0; i < members.size(); ++i)
             for (int a = 0; a < 3; ++a) part[3 * i + a] = xyz[3 * std::size_t(members[i]) + a];
@@ -412,11 +414,10 @@ Mesh Reconstructor::Impl::domain(const float* xyz, std::size_t n, const Params& 
         if (gg.extent_steps > capacity)  // split_domain keeps every group within one lattice
             throw Error("internal: a particle group of " + std::to_string(members.size()) + " does not fit one lattice");
         Stats gs;
-        append(mesh, run(part.data(), members.size(), p, gg, gs));
+        append(mesh, run(part.data(), members.size(), p, gg, gs, false));
         accumulate(s, gs);
         closed = closed && gs.closed;
     }
-    history.reset();
     s.particles = n;
     count_mesh(mesh, s);
     s.closed = closed;
@@ -424,7 +425,7 @@ Mesh Reconstructor::Impl::domain(const float* xyz, std::size_t n, const Params& 
     return mesh;
 }
 
-Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, const Grid& g, Stats& s) {
+Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, const Grid& g, Stats& s, bool keep_levels) {
     StageTimer timer(s);
     const float r = p.particle_radius, R = p.kernel_radius * r;
     const float threshold = p.curvature_threshold > 0.0f ? p.curvature_threshold : default_curvature_threshold();
@@ -487,7 +488,7 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     }
     count_mesh(mesh, s);
     s.closed = is_closed_and_oriented(mesh);
-    remember_levels(cells, g, p, s);
+    if (keep_levels) remember_levels(cells, g, p, s);
     for (auto& [name, ms] : rt.take_kernel_times()) s.kernel_ms.emplace_back(name, ms);
     rt.set_stage("");
     s.peak_memory_bytes = peak_rss_bytes();
