@@ -20,39 +20,40 @@ inline float3 outward_normal(float4 gradient) {
     return length(gradient.xyz) > 0.0f ? -normalize(gradient.xyz) : (float3)(0.0f);
 }
 
-// Outward unit normal (xyz) and surface flag (w: 1 or 0) per sorted particle, so the curvature loop
-// reads one float4 per neighbour instead of normalising its gradient.
-__kernel void particle_normals(__global const float4* gradient, __global const uchar* flags, uint n,
-                               __global float4* normals) {
+// Outward unit normal (xyz) and surface flag (w: 1 or 0) per sorted particle, written over its
+// colour-field gradient (not needed after this), so the curvature loop reads one float4 per
+// neighbour instead of normalising a gradient, and no second array of n float4 is allocated.
+__kernel void particle_normals(__global float4* gradient_to_normal, __global const uchar* flags, uint n) {
     uint i = get_global_id(0);
-    if (i < n) normals[i] = (float4)(outward_normal(gradient[i]), (flags[i] & FLAG_SURFACE) ? 1.0f : 0.0f);
+    if (i < n)
+        gradient_to_normal[i] =
+            (float4)(outward_normal(gradient_to_normal[i]), (flags[i] & FLAG_SURFACE) ? 1.0f : 0.0f);
 }
 
 // Paper eq. 1-2 for surface particle i over the 27 bins around it in global memory (bins whose
 // candidates do not fit in local memory).
-inline float curvature_global(uint i, __global const float4* sorted, __global const uchar* flags, float inv_cell,
-                              __global const ulong* bin_keys, ulong bin_mask, __global const uint2* range,
-                              __global const float4* gradient, float R) {
+inline float curvature_global(uint i, __global const float4* sorted, float inv_cell, __global const ulong* bin_keys,
+                              ulong bin_mask, __global const uint2* range, __global const float4* normals, float R) {
     const float4 xi = sorted[i];
-    const float3 ni = outward_normal(gradient[i]);
+    const float3 ni = normals[i].xyz;
     float kap = 0.0f;
     FOR_EACH_NEIGHBOUR_BIN(xi, inv_cell, bin_keys, bin_mask, range, sorted, {
-        if (j != i && (flags[j] & FLAG_SURFACE)) {
+        if (j != i && normals[j].w != 0.0f) {
             float d = length(xi.xyz - pj.xyz);
-            if (d < R) kap += (1.0f - dot(ni, outward_normal(gradient[j]))) * (1.0f - d / R);
+            if (d < R) kap += (1.0f - dot(ni, normals[j].xyz)) * (1.0f - d / R);
         }
     })
     return kap;
 }
 
 // Paper eq. 1-2: kappa_i = sum_j (1 - n_i . n_j) W(x_ij, h), W = max(0, 1 - |x_ij|/h), h = R, over
-// the surface neighbours j. Work-groups take bins in turn with candidates (positions and colour
-// gradients) in local memory; a work-item takes 8 particles at once, one per vector lane, each
+// the surface neighbours j. Work-groups take bins in turn with candidates (positions and
+// normals) in local memory; a work-item takes 8 particles at once, one per vector lane, each
 // adding its neighbours in candidate order (as in color_field).
 __kernel void particle_curvature(__global const float4* sorted, __global const uchar* flags,
                                  __global const uint* occupied, uint occupied_count, uint per_group, float inv_cell,
                                  __global const ulong* bin_keys, ulong bin_mask, __global const uint2* range,
-                                 __global const float4* gradient, __global const float4* normals, float R,
+                                 __global const float4* normals, float R,
                                  __global float* kappa, __local float4* cand, __local uint* bin_first,
                                  __local uint* bin_slot, __local uint* count, __local float4* cand_normal) {
     const uint lid = get_local_id(0), lsize = get_local_size(0);
@@ -73,7 +74,7 @@ __kernel void particle_curvature(__global const float4* sorted, __global const u
             for (uint k = lid; k < own.y; k += lsize) {
                 const uint i = own.x + k;
                 kappa[i] = (flags[i] & FLAG_SURFACE)
-                               ? curvature_global(i, sorted, flags, inv_cell, bin_keys, bin_mask, range, gradient, R)
+                               ? curvature_global(i, sorted, inv_cell, bin_keys, bin_mask, range, normals, R)
                                : 0.0f;
             }
             continue;

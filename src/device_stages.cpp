@@ -84,15 +84,20 @@ std::vector<cl_uint2> scan_ranges(const std::vector<cl_uint>& counts) {
 
 }  // namespace
 
-BinnedParticles bin_particles(OpenCLRuntime& rt, const std::vector<glm::vec4>& positions, float cell) {
+BinnedParticles bin_particles(OpenCLRuntime& rt, const float* xyz, std::size_t particles, glm::dvec3 origin, float cell) {
     BinnedParticles b;
-    b.count = positions.size();
+    b.count = particles;
     b.cell = cell;
     const cl_uint n = cl_uint(b.count);
     const float inv_cell = 1.0f / cell;
     DeviceBuffer pos = rt.buffer(n * sizeof(cl_float4), "particle positions");
-    // Host writes block: an error thrown while one is queued (a budget check) would free its source.
-    rt.queue().enqueueWriteBuffer(pos, CL_TRUE, 0, n * sizeof(cl_float4), positions.data());
+    auto* p = static_cast<cl_float4*>(
+        rt.queue().enqueueMapBuffer(pos, CL_TRUE, CL_MAP_WRITE_INVALIDATE_REGION, 0, n * sizeof(cl_float4)));
+    for (std::size_t i = 0; i < particles; ++i) {
+        const glm::vec3 v(glm::dvec3(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]) - origin);
+        p[i] = {{v.x, v.y, v.z, 0.0f}};
+    }
+    rt.queue().enqueueUnmapMemObject(pos, p);
     DeviceBuffer slot_of = rt.buffer(n * sizeof(cl_int), "particle bins");
 
     b.bins = insert_growing(rt, b.count / 4, "particle bin hash", [&](DeviceHash& h) {
@@ -151,20 +156,19 @@ ParticleClasses classify_particles(OpenCLRuntime& rt, const BinnedParticles& b, 
 namespace {
 
 /// Stage 4 on the device: per-particle curvature, per-cell mean, levels (paper eq. 1-3).
-void cell_curvature_levels(OpenCLRuntime& rt, const BinnedParticles& b, const ParticleClasses& c,
+void cell_curvature_levels(OpenCLRuntime& rt, const BinnedParticles& b, ParticleClasses& c,
                            const DeviceHash& cells, const cl::Buffer& cell_flags, float R, float inv_coarse,
                            float threshold, DeviceBuffer& level, DeviceBuffer& cell_kappa, DeviceBuffer& kappa) {
     const cl_uint n = cl_uint(b.count);
     const std::size_t cap = cells.capacity;
     kappa = rt.buffer(n * sizeof(cl_float), "particle curvature");
-    DeviceBuffer normals = rt.buffer(n * sizeof(cl_float4), "particle normals");
-    set_args(rt.kernel("particle_normals"), c.gradient, c.flags, n, normals);
+    const cl::Buffer& normals = c.gradient;  // turned into normals in place
+    set_args(rt.kernel("particle_normals"), c.gradient, c.flags, n);
     rt.run("particle_normals", n);
     set_args(rt.kernel("particle_curvature"), b.sorted, c.flags, b.occupied, cl_uint(b.occupied_count),
-             cl_uint(kBinsPerGroup), 1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.mask()), b.range, c.gradient, normals,
-             R, kappa);
-    set_candidate_args(rt, rt.kernel("particle_curvature"), 13);
-    rt.kernel("particle_curvature").setArg(17, cl::Local(rt.max_candidates() * sizeof(cl_float4)));  // normals
+             cl_uint(kBinsPerGroup), 1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.mask()), b.range, normals, R, kappa);
+    set_candidate_args(rt, rt.kernel("particle_curvature"), 12);
+    rt.kernel("particle_curvature").setArg(16, cl::Local(rt.max_candidates() * sizeof(cl_float4)));  // normals
     rt.run_groups("particle_curvature", (b.occupied_count + kBinsPerGroup - 1) / kBinsPerGroup, kBinGroup);
     DeviceBuffer sum = rt.buffer(cap * sizeof(cl_ulong), "cell curvature sums");
     DeviceBuffer cnt = rt.buffer(cap * sizeof(cl_uint), "cell curvature counts");
@@ -184,7 +188,7 @@ void cell_curvature_levels(OpenCLRuntime& rt, const BinnedParticles& b, const Pa
 
 }  // namespace
 
-SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& b, const ParticleClasses& c, float r, float R,
+SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& b, ParticleClasses& c, float r, float R,
                            float coarse_edge, float threshold, int forced_level, bool read_particle_kappa) {
     const cl_uint n = cl_uint(b.count);
     const float inv_coarse = 1.0f / coarse_edge;
@@ -235,7 +239,10 @@ std::size_t estimate_points(const std::vector<CoarseCell>& cells, int coarse_ste
         // A cell owns about side^3 points (neighbours share the rest), plus some on faces without a
         // neighbour. Underestimates only cost a rehash (the table grows at load 1/2).
         total += side * side * side + side * side / 2;
-        if (c.level == 2) total += 2 * side * side;  // refined midpoints of crossed edges (edge_refinement.hpp)
+        // Refined midpoints of crossed edges (edge_refinement.hpp): about 2 a level-2 cell on the
+        // dam-break frames (x512: 11.7 unique points a level-2 cell in all). 2 side^2 (8) here made
+        // the x512 table twice the size it needed (2^25 slots, 400 MB, for 7.2 M points).
+        if (c.level == 2) total += side * side / 2;
     }
     return total;
 }

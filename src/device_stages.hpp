@@ -35,12 +35,14 @@ struct BinnedParticles {
     std::size_t occupied_count = 0;
     std::uint64_t pair_load = 0;  ///< sum over bins of count^2: the neighbour work, before it is done
 };
-BinnedParticles bin_particles(OpenCLRuntime& rt, const std::vector<glm::vec4>& positions, float cell);
+/// Stage 1 on `n` particles (x, y, z floats), uploaded relative to `origin` (subtracted in double
+/// precision) straight into the device buffer: no host copy of them.
+BinnedParticles bin_particles(OpenCLRuntime& rt, const float* xyz, std::size_t n, glm::dvec3 origin, float cell);
 
 /// Stage 2: colour-field gradient (xyz) and neighbour count (w) per sorted particle; flags bit 0
 /// surface, bit 1 splash.
 struct ParticleClasses {
-    DeviceBuffer gradient;  ///< float4
+    DeviceBuffer gradient;  ///< float4; the curvature pass of surface_cells turns it into normals
     DeviceBuffer flags;     ///< uchar
     std::size_t surface = 0, splash = 0;
 };
@@ -55,8 +57,9 @@ struct SurfaceCells {
 };
 /// `forced_level` 2 or 3 assigns that level to every cell (uniform modes, no curvature pass).
 /// `read_particle_kappa`: also copy the per-particle curvature to the host (tests; the pipeline
-/// needs only the cells).
-SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& bins, const ParticleClasses& classes,
+/// needs only the cells). The curvature pass overwrites `classes.gradient` with the outward unit
+/// normals and surface flags (xyz, w) in place: a second float4 per particle was 280 MB at x512.
+SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& bins, ParticleClasses& classes,
                            float r, float R, float coarse_edge, float threshold, int forced_level,
                            bool read_particle_kappa = false);
 

@@ -146,13 +146,6 @@ double lattice_capacity_steps() {
     return cap;
 }
 
-std::vector<glm::vec4> relative_positions(const float* xyz, std::size_t n, glm::dvec3 origin) {
-    std::vector<glm::vec4> out(n);
-    for (std::size_t i = 0; i < n; ++i)
-        out[i] = glm::vec4(glm::vec3(glm::dvec3(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]) - origin), 0.0f);
-    return out;
-}
-
 std::vector<CoarseCell> merge_cells(const std::vector<CoarseCell>& a, const std::vector<CoarseCell>& b) {
     std::vector<CoarseCell> out;
     out.reserve(a.size() + b.size());
@@ -436,7 +429,7 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
 
     rt.set_stage("binning");
     check_host(double(n) * sizeof(glm::vec4), host, "uploading " + std::to_string(n) + " particles");
-    BinnedParticles bins = bin_particles(rt, relative_positions(xyz, n, g.origin), R);
+    BinnedParticles bins = bin_particles(rt, xyz, n, g.origin, R);
     // Neighbour sums cost sum(count^2) over bins of edge R; at a rest spacing of 2r a bin holds
     // (K/2)^3 particles. Far more means every particle sees thousands of others: a radius far too
     // large, or a pile of particles, that would run for hours instead of failing.

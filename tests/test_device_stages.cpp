@@ -44,12 +44,6 @@ std::vector<glm::vec3> test_particles(float r, std::uint32_t seed) {
     return x;
 }
 
-std::vector<glm::vec4> as_vec4(const std::vector<glm::vec3>& x) {
-    std::vector<glm::vec4> out;
-    for (auto p : x) out.emplace_back(p, 0.0f);
-    return out;
-}
-
 /// Device results come in bin order; this maps them back to input order.
 template <class T>
 std::vector<T> unsort(const std::vector<T>& sorted, const std::vector<cl_uint>& order) {
@@ -68,7 +62,7 @@ struct Classified {
 Classified classify(float r, float R, std::uint32_t seed) {
     Classified c;
     c.x = test_particles(r, seed);
-    c.bins = bin_particles(runtime(), as_vec4(c.x), R);
+    c.bins = bin_particles(runtime(), &c.x[0].x, c.x.size(), glm::dvec3(0.0), R);
     c.classes = classify_particles(runtime(), c.bins, r, R);
     c.order = read_buffer<cl_uint>(runtime(), c.bins.order, c.x.size());
     return c;
@@ -175,7 +169,7 @@ TEST_CASE("binning is a stable counting sort", "[device][binning]") {
     auto& rt = runtime();
     const float r = 0.025f, R = 4 * r;
     auto x = test_particles(r, 3);
-    BinnedParticles b = bin_particles(rt, as_vec4(x), R);
+    BinnedParticles b = bin_particles(rt, &x[0].x, x.size(), glm::dvec3(0.0), R);
     auto order = read_buffer<cl_uint>(rt, b.order, x.size());
     auto sorted = read_buffer<cl_float4>(rt, b.sorted, x.size());
     std::vector<cl_uint> perm(order);
@@ -305,8 +299,8 @@ TEST_CASE("a fine point gets the same bits whichever of its cells evaluates it",
     for (int k = 0; k < 8; ++k)
         for (int j = 0; j < 6; ++j)
             for (int i = 0; i < 10; ++i) x.push_back(glm::vec3(12 * r) + 2.0f * r * glm::vec3(i, j, k));
-    const BinnedParticles b = bin_particles(rt, as_vec4(x), R);
-    const ParticleClasses c = classify_particles(rt, b, r, R);
+    const BinnedParticles b = bin_particles(rt, &x[0].x, x.size(), glm::dvec3(0.0), R);
+    ParticleClasses c = classify_particles(rt, b, r, R);
     const SurfaceCells sc = surface_cells(rt, b, c, r, R, 4 * r, 1e9f, 3);  // every cell level 3
     REQUIRE(sc.cells.size() > 50);
     LatticeFrame frame;
