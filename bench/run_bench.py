@@ -638,7 +638,7 @@ def write_report(path, args, datasets, tools, rows, summary, checks, compares, m
             pps = fp / (km / 1000.0)
             ips = pps * inter
             gfl = pps * (inter * FLOPS_PER_INTERACTION + cand * FLOPS_PER_CANDIDATE) * 1e-9
-            add(f"| {ds['name']} | {t['name'].split('-')[1]} | {fmt_int(fp)} | {km:.1f} | {pps / 1e6:.2f} M | "
+            add(f"| {ds['name']} | {t['name'][len('trilevel-'):]} | {fmt_int(fp)} | {km:.1f} | {pps / 1e6:.2f} M | "
                 f"{inter:.1f} | {ips / 1e6:.0f} M | {gfl:.1f} | {fmt(ratio(gfl, gf) * 100 if gf else None, 1)} % |")
     add("")
     if meta.get("notes"):
