@@ -140,8 +140,6 @@ double total_ms(const trilevel::Stats& s, double wall_ms) {
 /// One input file -> one mesh (and stats) file. Prints the summary unless quiet or `result` is
 /// given, which receives a one-line summary and the level changes instead (frame sequences).
 /// `rec` is created once the first input has been read: a bad file fails before OpenCL starts.
-/// (Starting OpenCL on a second thread while reading gained under 2% on x64 and made ASan's
-/// thread teardown fail in the sanitizer build, so it stays sequential.)
 void reconstruct_file(std::optional<trilevel::Reconstructor>& rec, const trilevel::Params& params, const ReconstructArgs& a,
                       const std::string& input, const std::string& output, const std::string& stats_path,
                       trilevel::cli::FrameResult* result = nullptr) {
@@ -350,8 +348,7 @@ int run_devices() {
     return 0;
 }
 
-/// One line, whatever the message holds.
-
+/// The error as one stderr line, whatever the message holds; returns the exit code.
 int report(const std::string& message, int code) {
     std::fprintf(stderr, "trilevel: error: %s\n", trilevel::cli::one_line(message).c_str());
     return code;

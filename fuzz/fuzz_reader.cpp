@@ -2,7 +2,8 @@
 // format ("vtk", "vtu", "bgeo", "ply", "xyz": the format's reader as read_particles calls it) or
 // "mesh" for read_mesh (PLY, OBJ or legacy VTK, told apart by the first bytes). The input is the
 // whole file, in memory; read_particles_from_memory reads it twice, as read_particles would without
-// and with attributes (and NaN/Inf dropping). Without TRILEVEL_FUZZ_FORMAT this is the body of trilevel_fuzz_replay (replay.cpp).
+// and with attributes (and NaN/Inf dropping). Without TRILEVEL_FUZZ_FORMAT this is the body of
+// trilevel_fuzz_replay (replay.cpp).
 // trilevel::Error is the clean rejection; anything else is a finding: a crash, a sanitizer report,
 // another exception (it escapes and aborts), a leak, a timeout, too much memory (run_fuzz.sh sets
 // the limits), or a result that breaks what the readers promise (checked below, failing with abort()).

@@ -76,8 +76,7 @@ std::vector<std::uint64_t> level2_check_points(const std::vector<CoarseCell>& ce
     for (const auto& c : cells)
         if (c.level == 2)
             for_each_level2_cube(c, frame.coarse_steps, [&](glm::ivec3 lo) { keys.push_back(lattice::pack(lo + glm::ivec3(1))); });
-    std::sort(keys.begin(), keys.end());
-    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+    std::sort(keys.begin(), keys.end());  // unique already: a centre lies inside its own cell
     return keys;
 }
 

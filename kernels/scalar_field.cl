@@ -106,10 +106,11 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
     // origin): the particles inside the cut support of the cell's points are in the 27 bins around
     // it (SUPPORT_CUT). The float box below lands on bin faces there and took 4 or 5 bins per axis,
     // 2.5x the candidates; for other radii its extra bins only add zeros.
-    const float3 lo = convert_float3(c.xyz * coarse_steps) * step - R;
-    const float3 hi = convert_float3(c.xyz * coarse_steps + coarse_steps) * step + R;
-    const int3 blo = cells_are_bins ? c.xyz - 1 : convert_int3_rtn(lo * inv_cell);
-    const int3 bhi = cells_are_bins ? c.xyz + 1 : convert_int3_rtn(hi * inv_cell);
+    int3 blo = c.xyz - 1, bhi = c.xyz + 1;
+    if (!cells_are_bins) {
+        blo = convert_int3_rtn((convert_float3(c.xyz * coarse_steps) * step - R) * inv_cell);
+        bhi = convert_int3_rtn((convert_float3(c.xyz * coarse_steps + coarse_steps) * step + R) * inv_cell);
+    }
     const uint n_cand = gather_candidates(blo, bhi, sorted, bin_keys, bin_mask, range, cand, bin_first, bin_slot, count);
     const int side = coarse_steps + 1;
     const int points = side * side * side;

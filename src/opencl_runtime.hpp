@@ -58,8 +58,8 @@ public:
     /// End of a frame: trims pooled buffers that stayed oversized or unused (BufferPool::kTrimFrames).
     /// The first frame of a runtime keeps only what is on loan: at each stage and before each
     /// allocation it releases the free buffers, so a single reconstruction holds little more than
-    /// its peak_lent_bytes (a one-file CLI run has nothing to reuse them for). From the second frame on free buffers stay pooled for reuse, so a
-    /// steady sequence allocates nothing after its first frames.
+    /// its peak_lent_bytes (a one-file CLI run has nothing to reuse them for). From the second
+    /// frame on free buffers stay pooled, so a steady sequence allocates nothing after its first.
     void end_frame() { pool_.end_frame(), first_frame_ = false; }
     /// Releases every pooled buffer (buffers still lent go when their DeviceBuffer does).
     void release_buffers() { pool_.clear(); }

@@ -175,6 +175,16 @@ void count_mesh(const Mesh& m, Stats& s) {
     }
 }
 
+/// Runs `device_work` (inserting or evaluating fine points: the table may grow) with the table
+/// unmapped, then maps it again into `field`.
+template <class F>
+void on_device(OpenCLRuntime& rt, FinePoints& points, FinePointMap& field, F&& device_work) {
+    field = FinePointMap();
+    unmap_fine_points(rt, points);
+    device_work();
+    field = map_fine_points(rt, points);
+}
+
 /// The level-2 check (host/level2_check.hpp) on freshly evaluated cells and cube centres, before
 /// continuity: the level-2 cells that fail it become level 3 and get their remaining points
 /// (`field` is re-mapped then). Returns how many.
@@ -186,11 +196,8 @@ std::size_t promote_failing_cells(OpenCLRuntime& rt, FinePoints& points, FinePoi
         cells[i].level = 3;
         promoted.push_back(cells[i]);
     }
-    if (promoted.empty()) return 0;
-    field = FinePointMap();
-    unmap_fine_points(rt, points);
-    refine_and_evaluate(rt, points, promoted, frame, bins, r, R);
-    field = map_fine_points(rt, points);
+    if (!promoted.empty())
+        on_device(rt, points, field, [&] { refine_and_evaluate(rt, points, promoted, frame, bins, r, R); });
     return promoted.size();
 }
 
@@ -239,10 +246,9 @@ void refine_level2_edges(OpenCLRuntime& rt, FinePoints& points, FinePointMap& fi
                          float r, float R) {
     Level2Midpoints mids = level2_crossing_midpoints(cells, frame, field);
     if (mids.keys.empty()) return;
-    field = FinePointMap();
-    unmap_fine_points(rt, points);
-    insert_and_evaluate(rt, points, mids.keys, ClaimPoints::EdgeMidpoints, mids.holders, frame, bins, r, R);
-    field = map_fine_points(rt, points);
+    on_device(rt, points, field, [&] {
+        insert_and_evaluate(rt, points, mids.keys, ClaimPoints::EdgeMidpoints, mids.holders, frame, bins, r, R);
+    });
 }
 
 /// Stage 11 (host/vertex_data.hpp): normals and attributes at the vertices, each timed when asked for.
