@@ -68,10 +68,34 @@ Classified classify(float r, float R, std::uint32_t seed) {
     return c;
 }
 
+/// The first `count` keys of `in` inserted by hash_insert_keys into an empty table of `capacity`
+/// slots: the table, its counters (overflow flag, keys inserted) and each key's slot.
+struct Inserted {
+    std::vector<cl_ulong> table;
+    std::vector<cl_int> stats;
+    std::vector<cl_long> slots;
+};
+Inserted insert_keys(const std::vector<cl_ulong>& in, std::size_t count, std::size_t capacity) {
+    auto& rt = runtime();
+    cl::Buffer keys_in(rt.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, count * sizeof(cl_ulong),
+                       const_cast<cl_ulong*>(in.data()));
+    cl::Buffer slots(rt.context(), CL_MEM_READ_WRITE, count * sizeof(cl_long));
+    cl::Buffer keys(rt.context(), CL_MEM_READ_WRITE, capacity * sizeof(cl_ulong));
+    cl::Buffer stats(rt.context(), CL_MEM_READ_WRITE, 2 * sizeof(cl_int));
+    rt.queue().enqueueFillBuffer(keys, ~cl_ulong{0}, 0, capacity * sizeof(cl_ulong));
+    rt.queue().enqueueFillBuffer(stats, cl_int{0}, 0, 2 * sizeof(cl_int));
+    auto& k = rt.kernel("hash_insert_keys");
+    k.setArg(0, keys_in); k.setArg(1, cl_uint(count)); k.setArg(2, keys); k.setArg(3, cl_ulong(capacity - 1));
+    k.setArg(4, slots); k.setArg(5, stats);
+    rt.run("hash_insert_keys", count);
+    rt.finish();
+    return {read_buffer<cl_ulong>(rt, keys, capacity), read_buffer<cl_int>(rt, stats, 2),
+            read_buffer<cl_long>(rt, slots, count)};
+}
+
 }  // namespace
 
 TEST_CASE("the keys of one 2x2x2 block share a run of 8 slots, on the device as on the host", "[device][hash]") {
-    auto& rt = runtime();
     // Block A: the seven points of a 2x2x2 block with an odd coordinate (its all-even corner
     // belongs to the level-2 lattice). Block B: eight all-even points, a 2x2x2 block of that lattice.
     const glm::ivec3 a(2 * 1234, 2 * 77, 2 * 901), b(4 * 321, 4 * 55, 4 * 610);
@@ -84,18 +108,7 @@ TEST_CASE("the keys of one 2x2x2 block share a run of 8 slots, on the device as 
         place.push_back(std::uint64_t(i & 7));
     }
     const std::size_t capacity = std::size_t{1} << 20;
-    cl::Buffer keys_in(rt.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, in.size() * sizeof(cl_ulong), in.data());
-    cl::Buffer slots(rt.context(), CL_MEM_READ_WRITE, in.size() * sizeof(cl_long));
-    cl::Buffer keys(rt.context(), CL_MEM_READ_WRITE, capacity * sizeof(cl_ulong));
-    cl::Buffer stats(rt.context(), CL_MEM_READ_WRITE, 2 * sizeof(cl_int));
-    rt.queue().enqueueFillBuffer(keys, ~cl_ulong{0}, 0, capacity * sizeof(cl_ulong));
-    rt.queue().enqueueFillBuffer(stats, cl_int{0}, 0, 2 * sizeof(cl_int));
-    auto& k = rt.kernel("hash_insert_keys");
-    k.setArg(0, keys_in); k.setArg(1, cl_uint(in.size())); k.setArg(2, keys); k.setArg(3, cl_ulong(capacity - 1));
-    k.setArg(4, slots); k.setArg(5, stats);
-    rt.run("hash_insert_keys", in.size());
-    rt.finish();
-    const auto slot = read_buffer<cl_long>(rt, slots, in.size());
+    const std::vector<cl_long> slot = insert_keys(in, in.size(), capacity).slots;
     const auto run_of = [&](std::uint64_t key) { return lattice::hash(key) & (capacity - 1) & ~std::uint64_t{7}; };
     for (std::size_t i = 0; i < in.size(); ++i) {
         CHECK(std::uint64_t(slot[i]) == (lattice::hash(in[i]) & (capacity - 1)));  // an empty table: the home slot
@@ -106,7 +119,6 @@ TEST_CASE("the keys of one 2x2x2 block share a run of 8 slots, on the device as 
 }
 
 TEST_CASE("lock-free hash keeps every key exactly once under heavy duplication and grows on overflow", "[device][hash]") {
-    auto& rt = runtime();
     const std::size_t n = 2'000'000, distinct = 300'000;
     std::vector<cl_ulong> in(n);
     std::mt19937_64 rng(7);
@@ -114,54 +126,27 @@ TEST_CASE("lock-free hash keeps every key exactly once under heavy duplication a
     std::set<cl_ulong> expected(in.begin(), in.end());
     REQUIRE(expected.size() <= distinct);
 
-    cl::Buffer keys_in(rt.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, n * sizeof(cl_ulong), in.data());
-    cl::Buffer slots(rt.context(), CL_MEM_READ_WRITE, n * sizeof(cl_long));
-    auto insert_into = [&](std::size_t capacity) {
-        cl::Buffer keys(rt.context(), CL_MEM_READ_WRITE, capacity * sizeof(cl_ulong));
-        cl::Buffer stats(rt.context(), CL_MEM_READ_WRITE, 2 * sizeof(cl_int));
-        rt.queue().enqueueFillBuffer(keys, ~cl_ulong{0}, 0, capacity * sizeof(cl_ulong));
-        rt.queue().enqueueFillBuffer(stats, cl_int{0}, 0, 2 * sizeof(cl_int));
-        auto& k = rt.kernel("hash_insert_keys");
-        k.setArg(0, keys_in); k.setArg(1, cl_uint(n)); k.setArg(2, keys); k.setArg(3, cl_ulong(capacity - 1));
-        k.setArg(4, slots); k.setArg(5, stats);
-        rt.run("hash_insert_keys", n);
-        rt.finish();
-        return std::make_pair(read_buffer<cl_ulong>(rt, keys, capacity), read_buffer<cl_int>(rt, stats, 2));
-    };
-
     SECTION("too small a table raises the overflow flag") {
         // A full table makes every further insert probe all of it, so keep this one small.
-        const std::size_t small = 20'000;
-        cl::Buffer few(rt.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, small * sizeof(cl_ulong), in.data());
-        cl::Buffer keys(rt.context(), CL_MEM_READ_WRITE, 4096 * sizeof(cl_ulong));
-        cl::Buffer stats(rt.context(), CL_MEM_READ_WRITE, 2 * sizeof(cl_int));
-        rt.queue().enqueueFillBuffer(keys, ~cl_ulong{0}, 0, 4096 * sizeof(cl_ulong));
-        rt.queue().enqueueFillBuffer(stats, cl_int{0}, 0, 2 * sizeof(cl_int));
-        auto& k = rt.kernel("hash_insert_keys");
-        k.setArg(0, few); k.setArg(1, cl_uint(small)); k.setArg(2, keys); k.setArg(3, cl_ulong(4095));
-        k.setArg(4, slots); k.setArg(5, stats);
-        rt.run("hash_insert_keys", small);
-        rt.finish();
-        auto st = read_buffer<cl_int>(rt, stats, 2);
+        const std::vector<cl_int> st = insert_keys(in, 20'000, 4096).stats;
         CHECK(st[0] == 1);
         CHECK(st[1] == 4096);  // full, nothing beyond capacity
     }
     SECTION("a table grown to load factor <= 0.5 holds every key once, retrievable from its slot") {
         std::size_t cap = 1 << 18;  // smaller than the ~300k keys: grows at least once
-        std::vector<cl_ulong> table;
-        std::vector<cl_int> stats{1, 0};
-        while (stats[0] || std::size_t(stats[1]) * 2 > cap) {  // the host's growth rule
+        Inserted t;
+        t.stats = {1, 0};
+        while (t.stats[0] || std::size_t(t.stats[1]) * 2 > cap) {  // the host's growth rule
             cap *= 2;
-            std::tie(table, stats) = insert_into(cap);
+            t = insert_keys(in, n, cap);
         }
         std::multiset<cl_ulong> present;
-        for (auto k : table)
+        for (auto k : t.table)
             if (k != lattice::kEmptyKey) present.insert(k);
         CHECK(present.size() == expected.size());
         CHECK(std::set<cl_ulong>(present.begin(), present.end()) == expected);
-        CHECK(std::size_t(stats[1]) == expected.size());
-        auto slot = read_buffer<cl_long>(rt, slots, n);
-        for (std::size_t i = 0; i < n; i += 997) REQUIRE(table[slot[i]] == in[i]);
+        CHECK(std::size_t(t.stats[1]) == expected.size());
+        for (std::size_t i = 0; i < n; i += 997) REQUIRE(t.table[t.slots[i]] == in[i]);
     }
 }
 
