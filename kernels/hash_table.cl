@@ -57,23 +57,32 @@ inline long hash_find(const __global ulong* keys, ulong mask, ulong key) {
     return -1;
 }
 
-// Inserts `key` and returns its slot, or -1 when the table is full. Keeps the table's counters:
-// stats[0] = overflow flag, stats[1] = keys newly inserted (the host grows the table when it
-// passes half the capacity).
-inline long hash_insert_counted(volatile __global ulong* keys, ulong mask, ulong key, volatile __global int* stats) {
+// Inserts `key` and returns its slot, or -1 when the table is full (the caller raises the
+// overflow flag). *created tells whether this call put the key there.
+inline long hash_insert(volatile __global ulong* keys, ulong mask, ulong key, int* created) {
     ulong s = trilevel_hash(key) & mask;
+    *created = 0;
     for (ulong i = 0; i <= mask; ++i) {
         ulong cur = keys[s];
         if (cur == key) return (long)s;
         if (cur == EMPTY_KEY) {
             ulong prev = atom_cmpxchg(&keys[s], EMPTY_KEY, key);
-            if (prev == EMPTY_KEY) { atomic_inc(&stats[1]); return (long)s; }
+            if (prev == EMPTY_KEY) { *created = 1; return (long)s; }
             if (prev == key) return (long)s;
         }
         s = (s + 1) & mask;
     }
-    atomic_or(&stats[0], 1);
     return -1;
+}
+
+// hash_insert keeping the table's counters: stats[0] = overflow flag, stats[1] = keys newly
+// inserted (the host grows the table when it passes half the capacity).
+inline long hash_insert_counted(volatile __global ulong* keys, ulong mask, ulong key, volatile __global int* stats) {
+    int created;
+    const long s = hash_insert(keys, mask, key, &created);
+    if (created) atomic_inc(&stats[1]);
+    if (s < 0) atomic_or(&stats[0], 1);
+    return s;
 }
 
 // Test and maintenance kernel: inserts `n` keys, recording each key's slot.

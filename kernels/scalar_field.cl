@@ -30,6 +30,18 @@ inline float largest_real_eigenvalue(float3 a, float3 b, float3 c) {
     return max(u1, -0.5f * u1) + s;
 }
 
+inline float min_lane(float8 v) {
+    const float4 a = fmin(v.lo, v.hi);
+    const float2 b = fmin(a.lo, a.hi);
+    return fmin(b.x, b.y);
+}
+
+inline float max_lane(float8 v) {
+    const float4 a = fmax(v.lo, v.hi);
+    const float2 b = fmax(a.lo, a.hi);
+    return fmax(b.x, b.y);
+}
+
 inline float solenthaler_f(float ev) {
     if (ev < EV_LOW) return 1.0f;
     if (ev > EV_HIGH) return 0.0f;
@@ -77,8 +89,9 @@ __kernel void scalar_field(__global const uint* pending, uint count, __global co
 
 // Candidate particles of one coarse cell gathered into local memory (paper Fig. 3: the particles
 // that influence the cell's points lie within R of the cell box). A point shared by several cells
-// is evaluated once, by the work-group that claims it first (its NaN "pending" value becomes
-// CLAIMED). Each work-item then evaluates LANES claimed points at once, one per vector lane: every
+// is evaluated once: in the main pass (CLAIM_INSERTED) by the work-group whose insert created it,
+// which spares the separate insert pass and a second table lookup per point; in the other passes
+// by the work-group that claims it first (its NaN "pending" value becomes CLAIMED). Each work-item then evaluates LANES claimed points at once, one per vector lane: every
 // lane adds its neighbours in candidate order (bins in z, y, x order, each in index order), so a
 // point's value does not depend on its lane or its partners. A cell whose candidates do not fit
 // claims nothing and raises `overflow`; the host then evaluates what is left with the per-point
@@ -87,19 +100,43 @@ __kernel void scalar_field(__global const uint* pending, uint count, __global co
 #define CLAIMED_BITS 0x7fc00001u
 #define LANES 8
 #define MAX_CELL_POINTS 729  /* (8 + 1)^3: uniform cell r/2 */
+#define NOT_CLAIMED 0xffffffffu
+
+// The candidates within R of the box around the eight points X, Y, Z, in candidate order, as
+// indices into `cand`. The others lie beyond every lane's support and would add exact zeros, so
+// the sums keep their bits; sorting them out costs a few scalar operations per candidate against
+// some forty vector ones, and a branch-free loop (a skip inside the sum loop mispredicts about as
+// often as it saves). Points in lattice order span about a 4r x r slab: a third of the 27 bins'
+// candidates remain.
+inline uint near_candidates(float8 X, float8 Y, float8 Z, __local const float4* cand, uint n_cand, float R2,
+                            ushort* near) {
+    const float3 lo = (float3)(min_lane(X), min_lane(Y), min_lane(Z));
+    const float3 hi = (float3)(max_lane(X), max_lane(Y), max_lane(Z));
+    const float keep2 = R2 * 1.0625f;  // a margin for rounding: a few extra zeros cost nothing
+    uint n = 0;
+    for (uint j = 0; j < n_cand; ++j) {
+        const float3 p = cand[j].xyz;
+        const float3 d = fmax(fmax(lo - p, p - hi), (float3)(0.0f));
+        near[n] = (ushort)j;
+        n += dot(d, d) <= keep2;
+    }
+    return n;
+}
+
 // Which pending points of its cell a work-group claims (ClaimPoints in src/device_stages.hpp).
 #define CLAIM_LEVEL 0              /* the points of the cell's level */
 #define CLAIM_EDGE_MIDPOINTS 1     /* one odd coordinate: midpoints of level-2 edges (stage 8b) */
 #define CLAIM_LEVEL_AND_CENTRES 2  /* and in level-2 cells the three-odd centres of their cubes (level-2 check) */
+#define CLAIM_INSERTED 3           /* inserts the points of the cell's level (stage 5) and takes those it created */
 
 __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, int claim,
-                                 __global const ulong* keys, ulong mask,
+                                 volatile __global ulong* keys, ulong mask,
                                  volatile __global uint* value_bits, float step, __global const float4* sorted,
                                  float inv_cell, __global const ulong* bin_keys, ulong bin_mask,
                                  __global const uint2* range, float r, float R, volatile __global int* overflow,
                                  __local float4* cand, __local uint* bin_first, __local uint* bin_slot,
                                  __local uint* count, __local uint* claimed, __local uint* claimed_count,
-                                 int cells_are_bins) {
+                                 int cells_are_bins, volatile __global int* table_stats) {
     const int4 c = cells[get_group_id(0)];
     const uint lid = get_local_id(0), lsize = get_local_size(0);
     // With the default kernel radius the coarse cells are the particle bins (edge R = 4r, one
@@ -114,27 +151,52 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
     const uint n_cand = gather_candidates(blo, bhi, sorted, bin_keys, bin_mask, range, cand, bin_first, bin_slot, count);
     const int side = coarse_steps + 1;
     const int points = side * side * side;
-    if (n_cand > MAX_CANDIDATES || points > MAX_CELL_POINTS) {
+    const bool fits = n_cand <= MAX_CANDIDATES && points <= MAX_CELL_POINTS;
+    if (!fits && claim != CLAIM_INSERTED) {
         if (lid == 0) atomic_or(overflow, 1);
         return;
     }
-    if (lid == 0) *claimed_count = 0;
+    if (lid == 0) *claimed_count = 0;  // CLAIM_INSERTED: first the count of points created
     barrier(CLK_LOCAL_MEM_FENCE);
     for (int l = (int)lid; l < points; l += (int)lsize) {  // claim the cell's pending points
+        if (fits) claimed[l] = NOT_CLAIMED;
         int3 o = (int3)(l % side, (l / side) % side, l / (side * side));
         const int odd = (o.x & 1) + (o.y & 1) + (o.z & 1);
         const bool take = claim == CLAIM_EDGE_MIDPOINTS
                               ? odd == 1
                               : c.w != 2 || odd == 0 || (claim == CLAIM_LEVEL_AND_CENTRES && odd == 3);
         if (!take) continue;
-        long slot = hash_find(keys, mask, pack_key(c.xyz * coarse_steps + o));
+        const ulong key = pack_key(c.xyz * coarse_steps + o);
+        if (claim == CLAIM_INSERTED) {  // a point is evaluated by the work-group that created it
+            int created;
+            const long slot = hash_insert(keys, mask, key, &created);
+            if (slot < 0) atomic_or(&table_stats[0], 1);  // full: the host grows it and claims again
+            if (!created) continue;
+            atomic_inc(claimed_count);
+            if (fits) claimed[l] = (uint)slot;
+            continue;
+        }
+        const long slot = hash_find((const __global ulong*)keys, mask, key);
         if (slot < 0) continue;
         if (atomic_cmpxchg(&value_bits[slot], PENDING_BITS, CLAIMED_BITS) != PENDING_BITS) continue;
-        claimed[atomic_inc(claimed_count)] = (uint)slot;
+        claimed[l] = (uint)slot;
+    }
+    barrier(CLK_LOCAL_MEM_FENCE);
+    if (lid == 0 && claim == CLAIM_INSERTED) atomic_add(&table_stats[1], (int)*claimed_count);  // once per group
+    if (!fits) {  // its created points stay pending for the claiming pass the host runs next
+        if (lid == 0) atomic_or(overflow, 1);
+        return;
+    }
+    if (lid == 0) {  // in lattice order, so that eight consecutive points lie close together
+        uint n = 0;
+        for (int l = 0; l < points; ++l)
+            if (claimed[l] != NOT_CLAIMED) claimed[n++] = claimed[l];
+        *claimed_count = n;
     }
     barrier(CLK_LOCAL_MEM_FENCE);
     const uint n_claimed = *claimed_count;
     const float R2 = R * R, inv_R2 = 1.0f / R2;
+    ushort near[MAX_CANDIDATES];
     for (uint first = lid * LANES; first < n_claimed; first += lsize * LANES) {
         float px[LANES], py[LANES], pz[LANES];
         for (int l = 0; l < LANES; ++l) {  // spare lanes repeat the last point
@@ -142,11 +204,12 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
             px[l] = x.x; py[l] = x.y; pz[l] = x.z;
         }
         const float8 X = vload8(0, px), Y = vload8(0, py), Z = vload8(0, pz);
+        const uint n_near = near_candidates(X, Y, Z, cand, n_cand, R2, near);
         float8 K = 0.0f, Sx = 0.0f, Sy = 0.0f, Sz = 0.0f, Gx = 0.0f, Gy = 0.0f, Gz = 0.0f;
         float8 Axx = 0.0f, Axy = 0.0f, Axz = 0.0f, Ayx = 0.0f, Ayy = 0.0f, Ayz = 0.0f, Azx = 0.0f, Azy = 0.0f,
                Azz = 0.0f;
-        for (uint j = 0; j < n_cand; ++j) {
-            const float4 pj = cand[j];
+        for (uint j = 0; j < n_near; ++j) {
+            const float4 pj = cand[near[j]];
             const float8 yx = pj.x - X, yy = pj.y - Y, yz = pj.z - Z;
             const float8 d2 = yx * yx + yy * yy + yz * yz;
             const float8 q0 = 1.0f - d2 * inv_R2;

@@ -276,7 +276,9 @@ DeviceBuffer cell_buffer(OpenCLRuntime& rt, const std::vector<CoarseCell>& cells
 /// Stage 6 over the pending points of `cell_count` cells, one work-group per cell with candidates
 /// gathered in local memory; cells whose candidates do not fit leave their points to the per-point
 /// kernel. `claim`: which pending points of its cell a work-group takes (scalar_field.cl, CLAIM_*).
-void evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf, std::size_t cell_count,
+/// ClaimPoints::Inserted inserts the cells' points too (stage 5 and 6 in one pass) and returns
+/// false when the table filled up: the host then grows it and runs the two stages apart.
+bool evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf, std::size_t cell_count,
                     ClaimPoints claim, const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
     DeviceBuffer overflow = rt.buffer(sizeof(cl_int), "scalar field overflow flag");
     rt.queue().enqueueFillBuffer(overflow, cl_int{0}, 0, sizeof(cl_int));
@@ -289,8 +291,20 @@ void evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf
     k.setArg(19, cl::Local(kMaxCellPoints * sizeof(cl_uint)));
     k.setArg(20, cl::Local(sizeof(cl_uint)));
     k.setArg(21, cl_int(float(frame.coarse_steps) * frame.step == b.cell));  // coarse cells are the bins
+    k.setArg(22, p.hash.stats);
     rt.run_groups("scalar_field_cells", cell_count, kCellGroup);
-    if (read_buffer<cl_int>(rt, overflow, 1)[0]) evaluate_pending(rt, p, frame, b, r, R);
+    const bool overflow_seen = read_buffer<cl_int>(rt, overflow, 1)[0] != 0;
+    if (claim != ClaimPoints::Inserted) {
+        if (overflow_seen) evaluate_pending(rt, p, frame, b, r, R);
+        return true;
+    }
+    const HashCounters c = read_counters(rt, p.hash);
+    p.inserted = c.inserted;
+    if (c.overflow) return false;
+    // Points created by a cell whose candidates did not fit are still pending: the other cells
+    // that hold them claim them, as in the separate passes, so no point's kernel depends on timing.
+    if (overflow_seen) evaluate_cells(rt, p, cell_buf, cell_count, ClaimPoints::Level, frame, b, r, R);
+    return true;
 }
 
 void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<CoarseCell>& cells,
@@ -303,6 +317,15 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<Coa
 
     const std::size_t want = (p.inserted + estimate_points(cells, frame.coarse_steps)) * 2;
     if (p.hash.capacity < want) grow_fine_points(rt, p, want);
+    if (claim == ClaimPoints::Level) {  // one pass: each cell inserts its points and evaluates those it created
+        if (evaluate_cells(rt, p, cell_buf, cells.size(), ClaimPoints::Inserted, frame, b, r, R)) {
+            const HashCounters c = read_counters(rt, p.hash);
+            if (needs_growth(c, p.hash)) grow_fine_points(rt, p, next_pow2(c.inserted * 2 + 1));
+            rt.finish();
+            return;
+        }
+        grow_fine_points(rt, p, p.hash.capacity * 2);  // full (the estimate fell short): the passes apart
+    }
     for (;;) {  // stage 5; inserting is idempotent, so after growth the pass simply runs again
         set_args(rt.kernel("refine_points"), cell_buf, cl_uint(cells.size()), cl_int(frame.coarse_steps), p.hash.keys,
                  cl_ulong(p.hash.mask()), p.hash.stats);

@@ -77,6 +77,7 @@ enum class ClaimPoints {
     EdgeMidpoints = 1,        ///< one odd coordinate: midpoints of level-2 edges (stage 8b)
     LevelAndCubeCentres = 2,  ///< those of its level and, in a level-2 cell, the centres of its cubes
                               ///< (three odd coordinates: the level-2 check)
+    Inserted = 3,             ///< inserts the points of its level and takes those it created
 };
 /// Inserts the points of `cells` (growing the table as needed), then evaluates the new ones that
 /// `claim` names (points inserted before, e.g. by insert_points, included).

@@ -308,3 +308,45 @@ TEST_CASE("a fine point gets the same bits whichever of its cells evaluates it",
     }
     CHECK(points == forward_points.inserted);
 }
+
+TEST_CASE("refinement falls back to separate insert and evaluate passes when the table fills up", "[device][scalar_field]") {
+    auto& rt = runtime();
+    const float r = 0.025f, R = 4 * r;
+    auto [x, b, c, order] = classify(r, R, 5);
+    LatticeFrame frame;
+    frame.step = r;
+    frame.coarse_steps = 4;
+    // 40 level-2 cells that share no point: 1080 points, where the table is sized for 2 x 12 a
+    // cell (1024 slots). The one-pass refinement fills it up and must hand over to the passes apart.
+    std::vector<CoarseCell> cells;
+    for (int z = 3; z <= 5; z += 2)
+        for (int y = 3; y <= 9; y += 2)
+            for (int xx = 1; xx <= 9; xx += 2) cells.push_back({glm::ivec3(xx, y, z), 2});
+    REQUIRE(cells.size() == 40);
+    FinePoints points;
+    refine_and_evaluate(rt, points, cells, frame, b, r, R);
+    CHECK(points.inserted == 40 * 27);
+    CHECK(points.hash.capacity >= 2 * points.inserted);
+    FinePointMap map = read_fine_points(rt, points);
+    std::vector<glm::vec3> pts;
+    std::vector<float> dev;
+    for (const auto& cell : cells)
+        for (int k = 0; k <= 4; k += 2)
+            for (int j = 0; j <= 4; j += 2)
+                for (int i = 0; i <= 4; i += 2) {
+                    const glm::ivec3 p = cell.coord * 4 + glm::ivec3(i, j, k);
+                    const float* v = map.find(lattice::pack(p));
+                    REQUIRE(v != nullptr);
+                    pts.push_back(glm::vec3(p) * r);
+                    dev.push_back(*v);
+                }
+    const auto ref = reference::scalar_field(pts, x, r, R);
+    std::size_t far = 0;
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+        REQUIRE(std::isfinite(dev[i]));
+        if (ref[i] >= 2 * r) ++far;  // rim points (see above): only the side of the surface is sure
+        else CHECK(std::fabs(dev[i] - ref[i]) < 1e-3f * r);
+        CHECK((dev[i] > 0) == (ref[i] > 0));
+    }
+    CHECK(far < pts.size());
+}
