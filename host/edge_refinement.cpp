@@ -5,6 +5,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
 #include "cell_index.hpp"
 #include "marching_cubes.hpp"
@@ -18,15 +19,15 @@ struct Scratch {
     std::vector<const float*> values;
 };
 
-/// Midpoints of the crossed level-2 edges of one level-2 cell not in `field` yet. The cell's
-/// level-2 values are looked up once, in one batch (each is an end of up to six edges).
-bool cell_midpoints(const CoarseCell& cell, int cs, const FinePointMap& field, Scratch& s,
-                    std::vector<std::uint64_t>& out) {
+/// Midpoints of the crossed level-2 edges of one level-2 cell not in `field` yet, tagged with the
+/// cell's index. The cell's level-2 values are looked up once, in one batch (each is an end of up
+/// to six edges).
+void cell_midpoints(const CoarseCell& cell, std::uint32_t index, int cs, const FinePointMap& field, Scratch& s,
+                    std::vector<std::pair<std::uint64_t, std::uint32_t>>& out) {
     const int m = cs / 2 + 1;  // level-2 points per axis
     const glm::ivec3 base = cell.coord * cs;
     find_level2_points(field, cell.coord, cs, s.keys, s.values);
     const int step[3] = {1, m, m * m};
-    bool any = false;
     for (int z = 0, i = 0; z < m; ++z)
         for (int y = 0; y < m; ++y)
             for (int x = 0; x < m; ++x, ++i) {
@@ -37,31 +38,44 @@ bool cell_midpoints(const CoarseCell& cell, int cs, const FinePointMap& field, S
                     if (!va || !vb || mc::inside(*va) == mc::inside(*vb)) continue;
                     glm::ivec3 mid = base + 2 * o;
                     mid[axis] += 1;
-                    if (!field.find(mid)) out.push_back(lattice::pack(mid)), any = true;
+                    if (!field.find(mid)) out.emplace_back(lattice::pack(mid), index);
                 }
             }
-    return any;
 }
 
 }  // namespace
 
 Level2Midpoints level2_crossing_midpoints(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
                                           const FinePointMap& field) {
-    tbb::enumerable_thread_specific<std::vector<std::uint64_t>> found;
+    using Tagged = std::pair<std::uint64_t, std::uint32_t>;  // key, index of a cell holding it
+    tbb::enumerable_thread_specific<std::vector<Tagged>> found;
     tbb::enumerable_thread_specific<Scratch> scratch;
-    std::vector<std::uint8_t> holds(cells.size(), 0);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 64), [&](const auto& range) {
         auto& out = found.local();
         auto& s = scratch.local();
         for (std::size_t i = range.begin(); i != range.end(); ++i)
-            if (cells[i].level == 2) holds[i] = cell_midpoints(cells[i], frame.coarse_steps, field, s, out);
+            if (cells[i].level == 2) cell_midpoints(cells[i], std::uint32_t(i), frame.coarse_steps, field, s, out);
     });
+    std::vector<Tagged> all;
+    std::vector<std::uint8_t> holds(cells.size(), 0);
+    for (auto& v : found) {
+        for (const Tagged& t : v) holds[t.second] = 1;
+        all.insert(all.end(), v.begin(), v.end());
+    }
+    tbb::parallel_sort(all.begin(), all.end());  // by key, then cell: the first cell of each key keeps it
+    all.erase(std::unique(all.begin(), all.end(), [](const Tagged& a, const Tagged& b) { return a.first == b.first; }),
+              all.end());
+    std::stable_sort(all.begin(), all.end(), [](const Tagged& a, const Tagged& b) { return a.second < b.second; });
     Level2Midpoints out;
-    for (auto& v : found) out.keys.insert(out.keys.end(), v.begin(), v.end());
-    std::sort(out.keys.begin(), out.keys.end());
-    out.keys.erase(std::unique(out.keys.begin(), out.keys.end()), out.keys.end());
-    for (std::size_t i = 0; i < cells.size(); ++i)
-        if (holds[i]) out.holders.push_back(cells[i]);
+    out.keys.reserve(all.size());
+    std::size_t next = 0;
+    for (std::size_t i = 0; i < cells.size(); ++i) {
+        if (!holds[i]) continue;
+        out.holders.push_back(cells[i]);
+        out.first.push_back(std::uint32_t(next));
+        for (; next < all.size() && all[next].second == i; ++next) out.keys.push_back(all[next].first);
+    }
+    out.first.push_back(std::uint32_t(next));
     return out;
 }
 

@@ -16,14 +16,17 @@
 
 namespace trilevel {
 
-/// The midpoints to evaluate and the level-2 cells that hold them.
+/// The midpoints to evaluate, each listed once under one level-2 cell that holds it.
 struct Level2Midpoints {
-    std::vector<std::uint64_t> keys;  ///< sorted, unique
-    std::vector<CoarseCell> holders;  ///< level-2 cells with at least one of them, in the input order
+    std::vector<std::uint64_t> keys;  ///< unique; holder by holder, each holder's in ascending order
+    std::vector<CoarseCell> holders;  ///< level-2 cells holding at least one, in the input order
+    std::vector<std::uint32_t> first;  ///< holder h lists keys[first[h] .. first[h + 1]) (maybe none)
 };
 
 /// Midpoints of level-2 edges that the surface crosses (end signs differ) and that `field` does
-/// not hold yet. Run after band closure and continuity.
+/// not hold yet, each listed under the first cell of `cells` that holds its edge (up to four do),
+/// so that the device evaluates it without claiming. Holders with empty lists stay: where a
+/// holder's candidates do not fit, the others claim its points (scalar_field.cl).
 Level2Midpoints level2_crossing_midpoints(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
                                           const FinePointMap& field);
 

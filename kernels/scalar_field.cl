@@ -128,6 +128,7 @@ inline uint near_candidates(float8 X, float8 Y, float8 Z, __local const float4* 
 #define CLAIM_EDGE_MIDPOINTS 1     /* one odd coordinate: midpoints of level-2 edges (stage 8b) */
 #define CLAIM_LEVEL_AND_CENTRES 2  /* and in level-2 cells the three-odd centres of their cubes (level-2 check) */
 #define CLAIM_INSERTED 3           /* inserts the points of the cell's level (stage 5) and takes those it created */
+#define CLAIM_LISTED 4             /* the slots the host listed for the work-group (stage 8b) */
 
 __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, int claim,
                                  volatile __global ulong* keys, ulong mask,
@@ -136,9 +137,11 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
                                  __global const uint2* range, float r, float R, volatile __global int* overflow,
                                  __local float4* cand, __local uint* bin_first, __local uint* bin_slot,
                                  __local uint* count, __local uint* claimed, __local uint* claimed_count,
-                                 int cells_are_bins, volatile __global int* table_stats) {
+                                 int cells_are_bins, volatile __global int* table_stats,
+                                 __global const uint* listed_first, __global const long* listed_slots) {
     const int4 c = cells[get_group_id(0)];
     const uint lid = get_local_id(0), lsize = get_local_size(0);
+    if (claim == CLAIM_LISTED && listed_first[get_group_id(0)] == listed_first[get_group_id(0) + 1]) return;
     // With the default kernel radius the coarse cells are the particle bins (edge R = 4r, one
     // origin): the particles inside the cut support of the cell's points are in the 27 bins around
     // it (SUPPORT_CUT). The float box below lands on bin faces there and took 4 or 5 bins per axis,
@@ -158,7 +161,11 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
     }
     if (lid == 0) *claimed_count = 0;  // CLAIM_INSERTED: first the count of points created
     barrier(CLK_LOCAL_MEM_FENCE);
-    for (int l = (int)lid; l < points; l += (int)lsize) {  // claim the cell's pending points
+    for (int l = (int)lid; l < points && claim == CLAIM_LISTED; l += (int)lsize) {  // no lookups, no claims
+        const uint k = listed_first[get_group_id(0)] + (uint)l;
+        claimed[l] = k < listed_first[get_group_id(0) + 1] ? (uint)listed_slots[k] : NOT_CLAIMED;
+    }
+    for (int l = (int)lid; l < points && claim != CLAIM_LISTED; l += (int)lsize) {  // claim the cell's pending points
         if (fits) claimed[l] = NOT_CLAIMED;
         int3 o = (int3)(l % side, (l / side) % side, l / (side * side));
         const int odd = (o.x & 1) + (o.y & 1) + (o.z & 1);

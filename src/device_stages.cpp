@@ -231,6 +231,12 @@ SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& b, Particle
 
 namespace {
 
+/// The points each work-group of a ClaimPoints::Listed pass evaluates.
+struct Listed {
+    const cl::Buffer& first;  ///< uint per group and one more: group g takes slots[first[g] .. first[g + 1])
+    const cl::Buffer& slots;  ///< long per point: its slot in the table
+};
+
 /// Unique points a batch of cells adds, for sizing the table (interior points are shared by none).
 std::size_t estimate_points(const std::vector<CoarseCell>& cells, int coarse_steps) {
     std::size_t total = 0;
@@ -279,7 +285,8 @@ DeviceBuffer cell_buffer(OpenCLRuntime& rt, const std::vector<CoarseCell>& cells
 /// ClaimPoints::Inserted inserts the cells' points too (stage 5 and 6 in one pass) and returns
 /// false when the table filled up: the host then grows it and runs the two stages apart.
 bool evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf, std::size_t cell_count,
-                    ClaimPoints claim, const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
+                    ClaimPoints claim, const LatticeFrame& frame, const BinnedParticles& b, float r, float R,
+                    const Listed* listed = nullptr) {
     DeviceBuffer overflow = rt.buffer(sizeof(cl_int), "scalar field overflow flag");
     rt.queue().enqueueFillBuffer(overflow, cl_int{0}, 0, sizeof(cl_int));
     constexpr std::size_t kMaxCellPoints = 729;  // as in scalar_field.cl
@@ -292,8 +299,14 @@ bool evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf
     k.setArg(20, cl::Local(sizeof(cl_uint)));
     k.setArg(21, cl_int(float(frame.coarse_steps) * frame.step == b.cell));  // coarse cells are the bins
     k.setArg(22, p.hash.stats);
+    k.setArg(23, listed ? listed->first : cell_buf);  // any buffer where no list is read
+    k.setArg(24, listed ? listed->slots : cell_buf);
     rt.run_groups("scalar_field_cells", cell_count, kCellGroup);
     const bool overflow_seen = read_buffer<cl_int>(rt, overflow, 1)[0] != 0;
+    if (claim == ClaimPoints::Listed && overflow_seen) {  // as below: other holders claim what is left
+        evaluate_cells(rt, p, cell_buf, cell_count, ClaimPoints::EdgeMidpoints, frame, b, r, R);
+        return true;
+    }
     if (claim != ClaimPoints::Inserted) {
         if (overflow_seen) evaluate_pending(rt, p, frame, b, r, R);
         return true;
@@ -354,14 +367,16 @@ void evaluate_pending(OpenCLRuntime& rt, FinePoints& p, const LatticeFrame& fram
     rt.finish();
 }
 
-void insert_points(OpenCLRuntime& rt, FinePoints& p, const std::vector<std::uint64_t>& keys) {
-    if (keys.empty()) return;
+namespace {
+
+/// insert_points, returning the slot (cl_long) of each key in the final table.
+DeviceBuffer insert_keys(OpenCLRuntime& rt, FinePoints& p, const std::vector<std::uint64_t>& keys) {
     const cl_uint n = cl_uint(keys.size());
     DeviceBuffer in = rt.buffer(n * sizeof(cl_ulong), "extra fine points");
     DeviceBuffer slots = rt.buffer(n * sizeof(cl_long), "extra fine point slots");
     rt.queue().enqueueWriteBuffer(in, CL_TRUE, 0, n * sizeof(cl_ulong), keys.data());
     if (p.hash.capacity < (p.inserted + n) * 2) grow_fine_points(rt, p, (p.inserted + n) * 2);
-    for (;;) {
+    for (;;) {  // after growth every key goes in again: the slots are those of the final table
         set_args(rt.kernel("hash_insert_keys"), in, n, p.hash.keys, cl_ulong(p.hash.mask()), slots, p.hash.stats);
         rt.run("hash_insert_keys", n);
         HashCounters c = read_counters(rt, p.hash);
@@ -369,14 +384,25 @@ void insert_points(OpenCLRuntime& rt, FinePoints& p, const std::vector<std::uint
         if (!needs_growth(c, p.hash)) break;
         grow_fine_points(rt, p, std::max(p.hash.capacity * 2, next_pow2(c.inserted * 2 + 1)));
     }
+    return slots;
+}
+
+}  // namespace
+
+void insert_points(OpenCLRuntime& rt, FinePoints& p, const std::vector<std::uint64_t>& keys) {
+    if (!keys.empty()) insert_keys(rt, p, keys);
 }
 
 void insert_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<std::uint64_t>& keys,
-                         ClaimPoints kind, const std::vector<CoarseCell>& holders, const LatticeFrame& frame,
-                         const BinnedParticles& b, float r, float R) {
+                         const std::vector<std::uint32_t>& first, const std::vector<CoarseCell>& holders,
+                         const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
     if (keys.empty()) return;
-    insert_points(rt, p, keys);
-    evaluate_cells(rt, p, cell_buffer(rt, holders), holders.size(), kind, frame, b, r, R);
+    const DeviceBuffer slots = insert_keys(rt, p, keys);
+    DeviceBuffer lists = rt.buffer(first.size() * sizeof(cl_uint), "listed point ranges");
+    rt.queue().enqueueWriteBuffer(lists, CL_TRUE, 0, first.size() * sizeof(cl_uint), first.data());
+    const DeviceBuffer cell_buf = cell_buffer(rt, holders);
+    Listed listed{lists, slots};
+    evaluate_cells(rt, p, cell_buf, holders.size(), ClaimPoints::Listed, frame, b, r, R, &listed);
 }
 
 FinePointMap map_fine_points(OpenCLRuntime& rt, FinePoints& p) {

@@ -78,6 +78,7 @@ enum class ClaimPoints {
     LevelAndCubeCentres = 2,  ///< those of its level and, in a level-2 cell, the centres of its cubes
                               ///< (three odd coordinates: the level-2 check)
     Inserted = 3,             ///< inserts the points of its level and takes those it created
+    Listed = 4,               ///< takes the points the host listed for it (insert_and_evaluate)
 };
 /// Inserts the points of `cells` (growing the table as needed), then evaluates the new ones that
 /// `claim` names (points inserted before, e.g. by insert_points, included).
@@ -89,11 +90,11 @@ void evaluate_pending(OpenCLRuntime& rt, FinePoints& points, const LatticeFrame&
                       float r, float R);
 /// Inserts the given lattice point keys (growing the table as needed), pending evaluation.
 void insert_points(OpenCLRuntime& rt, FinePoints& points, const std::vector<std::uint64_t>& keys);
-/// insert_points, then evaluates them: every key must be a point of kind `kind` of a cell of
-/// `holders` (the cells whose work-groups evaluate them).
+/// insert_points, then evaluates them: holder h's work-group evaluates keys[first[h] ..
+/// first[h + 1]), which must be points of that cell, each key listed once.
 void insert_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vector<std::uint64_t>& keys,
-                         ClaimPoints kind, const std::vector<CoarseCell>& holders, const LatticeFrame& frame,
-                         const BinnedParticles& bins, float r, float R);
+                         const std::vector<std::uint32_t>& first, const std::vector<CoarseCell>& holders,
+                         const LatticeFrame& frame, const BinnedParticles& bins, float r, float R);
 /// Maps the table for the host and returns a view of it: no copy on CPU devices (the buffers are
 /// allocated host-accessible); an empty view when nothing was ever inserted. Host writes (transition continuity) land in the table. Call
 /// unmap_fine_points before the next device stage touches `points`.

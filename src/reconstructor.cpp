@@ -247,7 +247,7 @@ void refine_level2_edges(OpenCLRuntime& rt, FinePoints& points, FinePointMap& fi
     Level2Midpoints mids = level2_crossing_midpoints(cells, frame, field);
     if (mids.keys.empty()) return;
     on_device(rt, points, field, [&] {
-        insert_and_evaluate(rt, points, mids.keys, ClaimPoints::EdgeMidpoints, mids.holders, frame, bins, r, R);
+        insert_and_evaluate(rt, points, mids.keys, mids.first, mids.holders, frame, bins, r, R);
     });
 }
 

@@ -265,6 +265,34 @@ TEST_CASE("level-2 sphere with true values at crossed edge midpoints (edge refin
     CHECK(worst_refined < 0.05);
 }
 
+TEST_CASE("each crossed level-2 midpoint is listed once, under the first cell that holds its edge", "[mesh]") {
+    SphereSetup s = sphere_setup(12.0, 4, 2);
+    const Level2Midpoints mids = level2_crossing_midpoints(s.cells, s.frame, s.field);
+    REQUIRE(!mids.keys.empty());
+    REQUIRE(mids.first.size() == mids.holders.size() + 1);
+    CHECK(mids.first.back() == mids.keys.size());
+    const int cs = s.frame.coarse_steps;
+    auto holds = [&](const CoarseCell& c, glm::ivec3 p) {
+        return glm::all(glm::greaterThanEqual(p, c.coord * cs)) && glm::all(glm::lessThanEqual(p, c.coord * cs + cs));
+    };
+    std::set<std::uint64_t> seen;
+    std::size_t holders_seen = 0, empty_lists = 0;
+    for (std::size_t h = 0; h < mids.holders.size(); ++h) {
+        empty_lists += mids.first[h] == mids.first[h + 1];
+        for (std::uint32_t k = mids.first[h]; k < mids.first[h + 1]; ++k) {
+            CHECK(seen.insert(mids.keys[k]).second);  // listed once
+            const glm::ivec3 p = lattice::unpack(mids.keys[k]);
+            CHECK(holds(mids.holders[h], p));
+            // the first cell of the input holding it is this holder
+            const auto first = std::find_if(s.cells.begin(), s.cells.end(), [&](const CoarseCell& c) { return holds(c, p); });
+            CHECK(first->coord == mids.holders[h].coord);
+        }
+        ++holders_seen;
+    }
+    INFO(holders_seen << " holders, " << empty_lists << " with an empty list");
+    CHECK(empty_lists > 0);  // cells that only share others' midpoints stay holders (the claiming fallback)
+}
+
 TEST_CASE("triangulation is bit-identical for 1 and 2 threads", "[mesh]") {
     SphereSetup s = sphere_setup(20.0, 4, 3);
     auto run = [&](int threads) {
