@@ -76,7 +76,9 @@ __kernel void bin_gather(__global const uint* order, uint n, __global const floa
 // z, y, x bin order, each bin in index order. For any point inside, its neighbours then appear in
 // the same order as in FOR_EACH_NEIGHBOUR_BIN, so both paths give bit-identical sums. Returns
 // the count, or MAX_CANDIDATES + 1 when they do not fit (the caller then loops over global memory).
-// All work-items of the group must call it.
+// All work-items of the group must call it. SERIAL_GATHER (CPU devices, which run a work-group's
+// items one after another): the first item copies while it looks the bins up, instead of every
+// item walking all bins for a share of about one particle each.
 // MAX_CANDIDATES comes from the host (OpenCLRuntime::max_candidates): as many as two float4 lists
 // of them fit the device's local memory, at most 2048.
 #define MAX_BINS 64
@@ -93,13 +95,17 @@ inline uint gather_candidates(int3 blo, int3 bhi, __global const float4* sorted,
             long s = key_in_range(q) ? hash_find(bin_keys, bin_mask, pack_key(q)) : -1;
             bin_slot[b] = (uint)s;
             bin_first[b] = total;
-            if (s >= 0) total += range[s].y;
+            if (s < 0) continue;
+            const uint2 rg = range[s];
+            if (SERIAL_GATHER && total + rg.y <= MAX_CANDIDATES)
+                for (uint k = 0; k < rg.y; ++k) cand[total + k] = sorted[rg.x + k];
+            total += rg.y;
         }
         *count = (nbins <= MAX_BINS && total <= MAX_CANDIDATES) ? total : MAX_CANDIDATES + 1;
     }
     barrier(CLK_LOCAL_MEM_FENCE);
     const uint n = *count;
-    if (n <= MAX_CANDIDATES)
+    if (!SERIAL_GATHER && n <= MAX_CANDIDATES)
         for (int b = 0; b < nbins; ++b) {
             if ((int)bin_slot[b] < 0) continue;
             uint2 rg = range[bin_slot[b]];
@@ -115,10 +121,11 @@ inline void gather_more(int3 blo, int3 bhi, __global const float4* src, __global
     const uint lid = get_local_id(0), lsize = get_local_size(0);
     const int3 bn = bhi - blo + 1;
     const int nbins = bn.x * bn.y * bn.z;
-    for (int b = 0; b < nbins; ++b) {
+    const uint first = SERIAL_GATHER ? (lid == 0 ? 0 : UINT_MAX) : lid, stride = SERIAL_GATHER ? 1 : lsize;
+    for (int b = 0; b < nbins && first != UINT_MAX; ++b) {
         if ((int)bin_slot[b] < 0) continue;
         uint2 rg = range[bin_slot[b]];
-        for (uint k = lid; k < rg.y; k += lsize) dst[bin_first[b] + k] = src[rg.x + k];
+        for (uint k = first; k < rg.y; k += stride) dst[bin_first[b] + k] = src[rg.x + k];
     }
     barrier(CLK_LOCAL_MEM_FENCE);
 }

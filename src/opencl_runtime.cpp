@@ -1,5 +1,6 @@
 #include "opencl_runtime.hpp"
 
+#include <cstring>
 #include <algorithm>
 #include <atomic>
 #include <cstdio>
@@ -99,10 +100,10 @@ std::string mib(std::uint64_t bytes) {
     return buf;
 }
 
-std::string build_options(std::size_t max_candidates) {
+std::string build_options(std::size_t max_candidates, bool cpu) {
     std::ostringstream o;
     o.precision(9);
-    o << "-cl-std=CL1.2 -DMAX_CANDIDATES=" << max_candidates << " -DSURFACE_GRADIENT=" << constants::kSurfaceGradient << "f"
+    o << "-cl-std=CL1.2 -DSERIAL_GATHER=" << (cpu ? 1 : 0) << " -DMAX_CANDIDATES=" << max_candidates << " -DSURFACE_GRADIENT=" << constants::kSurfaceGradient << "f"
       << " -DSPLASH_NEIGHBOURS=" << constants::kSplashNeighbours
       << " -DTHIN_NEIGHBOURS=" << constants::kThinNeighbours << " -DSAME_SPOT=" << constants::kSameSpot << "f" << " -DEV_LOW=" << constants::kEvLow << "f"
       << " -DEV_HIGH=" << constants::kEvHigh << "f" << " -DSUPPORT_CUT=" << constants::kSupportCut << "f";
@@ -146,12 +147,19 @@ OpenCLRuntime::OpenCLRuntime(int device) try {
     throw Error(std::string("cannot set up the OpenCL device: ") + e.what() + " returned " + cl_error_name(e.err()));
 }
 
+/// gather_candidates (particle_binning.cl): one work-item copies on CPU devices, all of them on
+/// others. TRILEVEL_SERIAL_GATHER=0|1 overrides it (tests: both give the same bits).
+bool OpenCLRuntime::serial_gather() const {
+    if (const char* env = std::getenv("TRILEVEL_SERIAL_GATHER"); env && *env) return std::strcmp(env, "0") != 0;
+    return (device_.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_CPU) != 0;
+}
+
 void OpenCLRuntime::build_program() {
     std::string source;
     for (const char* f : kKernelFiles) source += std::string(embedded_kernel_source(f)) + "\n";
     program_ = cl::Program(context_, source);
     try {
-        program_.build(std::vector<cl::Device>{device_}, build_options(max_candidates_).c_str());
+        program_.build(std::vector<cl::Device>{device_}, build_options(max_candidates_, serial_gather()).c_str());
     } catch (const cl::Error&) {
         std::string log = program_.getBuildInfo<CL_PROGRAM_BUILD_LOG>(device_);
         for (char& c : log)

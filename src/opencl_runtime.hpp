@@ -79,6 +79,7 @@ public:
 
 private:
     void build_program();
+    bool serial_gather() const;
     void maybe_fail(const char* call);
     cl::Buffer allocate(BufferPool::Entry& e, std::size_t bytes, const char* what);
     void make_room(BufferPool::Entry& e, std::size_t& capacity, std::size_t bytes);

@@ -81,6 +81,10 @@ TEST_CASE("output is bit-identical across runs, reconstructors and work-group si
             INFO("work-group size " << wg);
             REQUIRE(same_mesh(a, c));
         }
+        ::setenv("TRILEVEL_SERIAL_GATHER", "0", 1);  // candidates copied by every work-item, as on GPUs
+        Reconstructor cooperative;
+        ::unsetenv("TRILEVEL_SERIAL_GATHER");
+        REQUIRE(same_mesh(a, cooperative.reconstruct(s.positions.data(), s.size(), params(r, mode))));
     }
 }
 
