@@ -1,5 +1,7 @@
 #include "device_stages.hpp"
 
+#include <tbb/parallel_sort.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -71,15 +73,43 @@ void set_candidate_args(OpenCLRuntime& rt, cl::Kernel& k, cl_uint first) {
     k.setArg(first + 3, cl::Local(sizeof(cl_uint)));
 }
 
-/// Host exclusive scan of bucket counts into (first, count) pairs.
-std::vector<cl_uint2> scan_ranges(const std::vector<cl_uint>& counts) {
-    std::vector<cl_uint2> range(counts.size());
+/// Spreads the low 21 bits of v to every third bit (Morton code helper).
+std::uint64_t spread3(std::uint64_t v) {
+    v &= 0x1fffff;
+    v = (v | v << 32) & 0x1f00000000ffffULL;
+    v = (v | v << 16) & 0x1f0000ff0000ffULL;
+    v = (v | v << 8) & 0x100f00f00f00f00fULL;
+    v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
+    v = (v | v << 2) & 0x1249249249249249ULL;
+    return v;
+}
+
+/// Morton (z-order) code of non-negative lattice coordinates.
+std::uint64_t morton(glm::ivec3 c) {
+    return spread3(std::uint64_t(c.x)) | spread3(std::uint64_t(c.y)) << 1 | spread3(std::uint64_t(c.z)) << 2;
+}
+
+/// The occupied bin slots in Morton order of their coordinates, and each slot's (first, count)
+/// range laid out in that order: bins near in space are then near in memory and in the order
+/// work-groups take them, so a bin's 27-bin gather mostly finds its neighbours' particles in
+/// cache. Sums do not change: a gather orders candidates by bin position, not by range.
+void order_bins(const std::vector<cl_uint>& counts, const std::vector<cl_ulong>& keys, std::vector<cl_uint>& occupied,
+                std::vector<cl_uint2>& range) {
+    std::vector<std::pair<std::uint64_t, cl_uint>> order;
+    for (std::size_t s = 0; s < counts.size(); ++s)
+        if (counts[s]) {
+            order.emplace_back(morton(lattice::unpack(keys[s])), cl_uint(s));
+        }
+    tbb::parallel_sort(order.begin(), order.end());
+    range.assign(counts.size(), {{0, 0}});
+    occupied.clear();
+    occupied.reserve(order.size());
     cl_uint sum = 0;
-    for (std::size_t s = 0; s < counts.size(); ++s) {
+    for (const auto& [code, s] : order) {
+        occupied.push_back(s);
         range[s] = {{sum, counts[s]}};
         sum += counts[s];
     }
-    return range;
 }
 
 }  // namespace
@@ -111,13 +141,10 @@ BinnedParticles bin_particles(OpenCLRuntime& rt, const float* xyz, std::size_t p
     rt.run("bin_count", n);
 
     auto counts = read_buffer<cl_uint>(rt, count, cap);
-    auto range = scan_ranges(counts);
     std::vector<cl_uint> occupied;
-    for (std::size_t s = 0; s < cap; ++s)
-        if (counts[s]) {
-            occupied.push_back(cl_uint(s));
-            b.pair_load += std::uint64_t(counts[s]) * counts[s];
-        }
+    std::vector<cl_uint2> range;
+    order_bins(counts, read_buffer<cl_ulong>(rt, b.bins.keys, cap), occupied, range);
+    for (cl_uint s : occupied) b.pair_load += std::uint64_t(counts[s]) * counts[s];
     b.occupied_count = occupied.size();
     b.occupied = rt.buffer(occupied.size() * sizeof(cl_uint), "occupied bins");
     rt.queue().enqueueWriteBuffer(b.occupied, CL_TRUE, 0, occupied.size() * sizeof(cl_uint), occupied.data());
@@ -271,9 +298,16 @@ void grow_fine_points(OpenCLRuntime& rt, FinePoints& p, std::size_t capacity) {
 }  // namespace
 
 /// Cells as int4 (x, y, z, level) on the device.
-DeviceBuffer cell_buffer(OpenCLRuntime& rt, const std::vector<CoarseCell>& cells) {
+/// `in_morton_order`: the cells in Morton order of their coordinates instead of the given order,
+/// where nothing but the work-groups' memory locality depends on it (neighbouring cells then
+/// run close in time, and their gathers and table lines are still in cache).
+DeviceBuffer cell_buffer(OpenCLRuntime& rt, const std::vector<CoarseCell>& cells, bool in_morton_order = false) {
     std::vector<cl_int4> data;
     for (const auto& c : cells) data.push_back({{c.coord.x, c.coord.y, c.coord.z, c.level}});
+    if (in_morton_order)
+        tbb::parallel_sort(data.begin(), data.end(), [](const cl_int4& a, const cl_int4& b) {
+            return morton(glm::ivec3(a.s[0], a.s[1], a.s[2])) < morton(glm::ivec3(b.s[0], b.s[1], b.s[2]));
+        });
     DeviceBuffer buf = rt.buffer(data.size() * sizeof(cl_int4), "cell list");
     rt.queue().enqueueWriteBuffer(buf, CL_TRUE, 0, data.size() * sizeof(cl_int4), data.data());
     return buf;
@@ -323,7 +357,7 @@ bool evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf
 void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<CoarseCell>& cells,
                          const LatticeFrame& frame, const BinnedParticles& b, float r, float R, ClaimPoints claim) {
     if (cells.empty()) return;
-    const DeviceBuffer cell_buf = cell_buffer(rt, cells);
+    const DeviceBuffer cell_buf = cell_buffer(rt, cells, true);
     const std::size_t side = std::size_t(frame.coarse_steps + 1);
     const std::size_t work = cells.size() * side * side * side;
     if (work > std::numeric_limits<cl_uint>::max()) throw Error("too many fine points in one refinement pass");
