@@ -123,6 +123,27 @@ std::string le_u64(std::uint64_t v) { return le_bytes(v); }
 
 }  // namespace
 
+TEST_CASE("BGEO: large gzip'd point data (one inflate call) reads as the plain file, in one gzip member or two", "[io]") {
+    TempDir tmp;
+    std::vector<float> pts;
+    for (int i = 0; i < 60000; ++i)  // 60k records of 40 bytes: over the 1 MiB where one call takes over
+        for (int k = 0; k < 3; ++k) pts.push_back(0.001f * float((i * 7 + k * 13) % 100003) - 3.0f);
+    const std::string plain = bgeo_file(pts, true), f = tmp.file("big.bgeo");
+    write_bytes(f, plain);
+    const trilevel::ParticleSet want = read_particles(f);
+    write_bytes(f, gzip(plain));
+    require_same(read_particles(f), pts);
+    const std::size_t half = plain.size() / 2;  // two members: the footer gives only the second's size
+    write_bytes(f, gzip(plain.substr(0, half)) + gzip(plain.substr(half)));
+    const trilevel::ParticleSet two = read_particles(f);
+    require_same(two, pts);
+    REQUIRE(two.attributes.size() == want.attributes.size());
+    std::string wrong = gzip(plain);  // a footer that lies about the size: zlib's check names it
+    wrong[wrong.size() - 1] ^= 0x01;
+    require_rejected(tmp, "footer.bgeo", wrong, "gzip");
+    require_rejected(tmp, "cut.bgeo", gzip(plain).substr(0, plain.size() / 8), "truncated");
+}
+
 TEST_CASE("hostile and malformed particle files are rejected with one-line errors naming the file", "[io]") {
     TempDir tmp;
     const auto pts = sample_points();

@@ -2,11 +2,17 @@
 // gzip'd or plain: big-endian header, point attribute table, then one record per point
 // holding P as x y z w (homogeneous, w = 1 in practice) and the other point attributes.
 // A gzip'd file is inflated only as far as the reader needs, so that a header claiming more
-// points than the compressed bytes could hold is an error before any large inflate.
+// points than the compressed bytes could hold is an error before any large inflate. The point
+// data itself is inflated in one call by libdeflate where the build has it (about twice zlib's
+// speed; zlib took a tenth of a x64 reconstruction).
 #include <algorithm>
 #include <cmath>
+#include <memory>
 
 #include <zlib.h>
+#ifdef TRILEVEL_HAVE_LIBDEFLATE
+#include <libdeflate.h>
+#endif
 
 #include "io/io_common.hpp"
 #include "io/particle_formats.hpp"
@@ -30,8 +36,8 @@ public:
     BgeoBytes& operator=(const BgeoBytes&) = delete;
 
     bool gzipped() const { return gz_; }
-    const char* data() const { return gz_ ? out_.data() : file_.data(); }
-    std::size_t size() const { return gz_ ? out_.size() : file_.size(); }  ///< bytes available so far
+    const char* data() const { return whole_ ? whole_.get() : gz_ ? out_.data() : file_.data(); }
+    std::size_t size() const { return whole_ ? whole_size_ : gz_ ? out_.size() : file_.size(); }  ///< bytes available so far
 
     /// The most bytes the file can hold once decompressed: its size, or deflate's best ratio.
     std::uint64_t max_size() const { return gz_ ? max_inflated_size(file_.size()) : file_.size(); }
@@ -39,6 +45,8 @@ public:
     /// Makes the first n bytes available; false when the data ends before (Error for bad gzip).
     bool ensure(std::uint64_t n) {
         if (!gz_) return n <= file_.size();
+        if (whole_) return n <= whole_size_;
+        if (n >= kWholeAt && inflate_whole(n)) return true;
         while (out_.size() < n && !ended_) {
             const std::size_t have = out_.size();
             const std::size_t want = static_cast<std::size_t>(std::min<std::uint64_t>(n, max_size()));
@@ -57,6 +65,35 @@ public:
     }
 
 private:
+    static constexpr std::uint64_t kWholeAt = 1 << 20;  ///< requests from this size on try inflate_whole
+
+    /// The whole file in one libdeflate call, when it is one gzip member whose footer gives a size
+    /// of at least the n bytes asked for. Anything else (several members, a wrong
+    /// footer, a corrupt or truncated stream) is left to the zlib path, which words the errors.
+    bool inflate_whole([[maybe_unused]] std::uint64_t n) {
+#ifdef TRILEVEL_HAVE_LIBDEFLATE
+        if (file_.size() < 18) return false;
+        const std::uint64_t isize = load<std::uint32_t>(file_.data() + file_.size() - 4, false);  // size mod 2^32
+        // At most twice what the points need: a footer claiming far more is left to zlib, which
+        // inflates only the n bytes asked for.
+        if (isize < n || isize > max_size() || isize > 2 * n + kWholeAt) return false;
+        std::unique_ptr<char[]> buf(new char[isize]);  // not zero-filled: every byte is written
+        libdeflate_decompressor* d = libdeflate_alloc_decompressor();
+        if (!d) return false;
+        std::size_t in_used = 0, out_len = 0;
+        const libdeflate_result rc =
+            libdeflate_gzip_decompress_ex(d, file_.data(), file_.size(), buf.get(), isize, &in_used, &out_len);
+        libdeflate_free_decompressor(d);
+        if (rc != LIBDEFLATE_SUCCESS || in_used != file_.size() || out_len != isize) return false;
+        whole_ = std::move(buf);
+        whole_size_ = isize;
+        ended_ = true;
+        return true;
+#else
+        return false;
+#endif
+    }
+
     /// Inflates up to `room` bytes into dst; handles several gzip members and inputs over 4 GiB.
     std::size_t inflate_into(char* dst, std::size_t room) {
         zs_.next_out = reinterpret_cast<Bytef*>(dst);
@@ -90,6 +127,8 @@ private:
     z_stream zs_{};
     std::size_t fed_ = 0;
     std::string out_;
+    std::unique_ptr<char[]> whole_;  ///< inflate_whole's result, when it succeeded
+    std::size_t whole_size_ = 0;
 };
 
 /// Bounds-checked big-endian reads over the decompressed bytes.
