@@ -6,7 +6,9 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
 #include <filesystem>
+#include <future>
 #include <iostream>
 #include <limits>
 #include <new>
@@ -139,7 +141,9 @@ double total_ms(const trilevel::Stats& s, double wall_ms) {
 
 /// One input file -> one mesh (and stats) file. Prints the summary unless quiet or `result` is
 /// given, which receives a one-line summary and the level changes instead (frame sequences).
-/// `rec` is created once the first input has been read: a bad file fails before OpenCL starts.
+/// `rec` is created with the first input: OpenCL starts (device, cached kernels) on this thread
+/// while the file is read on another, and a bad file is still the error reported when both fail.
+/// (The reverse, OpenCL on the second thread, made ASan's teardown of that thread fail.)
 void reconstruct_file(std::optional<trilevel::Reconstructor>& rec, const trilevel::Params& params, const ReconstructArgs& a,
                       const std::string& input, const std::string& output, const std::string& stats_path,
                       trilevel::cli::FrameResult* result = nullptr) {
@@ -148,11 +152,20 @@ void reconstruct_file(std::optional<trilevel::Reconstructor>& rec, const trileve
     read_options.attributes = a.attributes;
     read_options.drop_invalid = a.drop_invalid;
     // The reader returns the --attribute names in their order (an Error names a missing one).
-    const trilevel::ParticleSet particles = trilevel::read_particles(input, read_options);
+    auto reading = std::async(std::launch::async, [&] { return trilevel::read_particles(input, read_options); });
+    std::exception_ptr start_failure;
+    if (!rec) {  // compiled kernels and buffers are reused across frames
+        try {
+            rec.emplace(a.device);
+        } catch (...) {
+            start_failure = std::current_exception();
+        }
+    }
+    const trilevel::ParticleSet particles = reading.get();  // a bad file first
+    if (start_failure) std::rethrow_exception(start_failure);
     if (particles.dropped_invalid > 0)
         std::fprintf(stderr, "warning: %s: dropped %zu particles with NaN/Inf coordinates\n", input.c_str(), particles.dropped_invalid);
     if (particles.size() == 0) throw trilevel::Error(input + ": holds no particles");
-    if (!rec) rec.emplace(a.device);  // compiled kernels and buffers are reused across frames
     trilevel::Stats stats;
     const trilevel::Mesh mesh = rec->reconstruct(particles.positions.data(), particles.size(), params, &stats, particles.attributes);
     trilevel::MeshWriteOptions options;
