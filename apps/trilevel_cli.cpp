@@ -161,13 +161,15 @@ void reconstruct_file(std::optional<trilevel::Reconstructor>& rec, const trileve
             start_failure = std::current_exception();
         }
     }
-    const trilevel::ParticleSet particles = reading.get();  // a bad file first
+    trilevel::ParticleSet particles = reading.get();  // a bad file first
     if (start_failure) std::rethrow_exception(start_failure);
     if (particles.dropped_invalid > 0)
         std::fprintf(stderr, "warning: %s: dropped %zu particles with NaN/Inf coordinates\n", input.c_str(), particles.dropped_invalid);
     if (particles.size() == 0) throw trilevel::Error(input + ": holds no particles");
     trilevel::Stats stats;
-    const trilevel::Mesh mesh = rec->reconstruct(particles.positions.data(), particles.size(), params, &stats, particles.attributes);
+    const std::size_t count = particles.size();
+    // The positions are handed over: the library frees them once they are on the device.
+    const trilevel::Mesh mesh = rec->reconstruct(std::move(particles.positions), params, &stats, particles.attributes);
     trilevel::MeshWriteOptions options;
     options.color_levels = a.color_levels;
     trilevel::write_mesh(output, mesh, options);
@@ -180,7 +182,7 @@ void reconstruct_file(std::optional<trilevel::Reconstructor>& rec, const trileve
     const double wall = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     if (result) {
         char buf[160];
-        std::snprintf(buf, sizeof buf, "%zu particles, %zu triangles, %s, %.0f ms", particles.size(), mesh.triangle_count(),
+        std::snprintf(buf, sizeof buf, "%zu particles, %zu triangles, %s, %.0f ms", count, mesh.triangle_count(),
                       stats.closed ? "closed" : "NOT closed", total_ms(stats, wall));
         result->line = buf;
         if (stats.level_history)
@@ -191,7 +193,7 @@ void reconstruct_file(std::optional<trilevel::Reconstructor>& rec, const trileve
     } else if (!a.quiet)
         std::printf("particles: %zu\nsurface cells: %zu (level 2: %zu, level 3: %zu)\ntriangles: %zu\nclosed: %s\n"
                     "total time: %.1f ms\noutput: %s\n",
-                    particles.size(), stats.surface_cells, stats.surface_cells_level2, stats.surface_cells_level3,
+                    count, stats.surface_cells, stats.surface_cells_level2, stats.surface_cells_level3,
                     mesh.triangle_count(), stats.closed ? "yes" : "no", total_ms(stats, wall), output.c_str());
 }
 

@@ -288,6 +288,8 @@ struct Reconstructor::Impl {
     explicit Impl(int device) : rt(device) {}
     OpenCLRuntime rt;
     LevelHistory history;  ///< levels of the previous frame (adaptive mode)
+    /// Positions handed over by reconstruct(std::vector<float>&&), freed once binned (null: none).
+    std::vector<float>* release_after_binning = nullptr;
     Params history_params;
     float user_radius = 0.0f;  ///< the radius as given, for messages (the pipeline may run scaled)
     Mesh frame(const float* xyz, std::size_t n, const Params& p, Stats& s);
@@ -436,6 +438,11 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     rt.set_stage("binning");
     check_host(double(n) * sizeof(glm::vec4), host, "uploading " + std::to_string(n) + " particles");
     BinnedParticles bins = bin_particles(rt, xyz, n, g.origin, R);
+    if (keep_levels && release_after_binning) {  // one lattice: nothing reads the positions again
+        std::vector<float>().swap(*release_after_binning);
+        release_after_binning = nullptr;
+        xyz = nullptr;
+    }
     // Neighbour sums cost sum(count^2) over bins of edge R; at a rest spacing of 2r a bin holds
     // (K/2)^3 particles. Far more means every particle sees thousands of others: a radius far too
     // large, or a pile of particles, that would run for hours instead of failing.
@@ -521,6 +528,20 @@ void Reconstructor::reset_history() { impl_->history.reset(); }
 
 Mesh Reconstructor::reconstruct(const float* xyz, std::size_t count, const Params& params, Stats* stats) {
     return reconstruct(xyz, count, params, stats, {});
+}
+
+Mesh Reconstructor::reconstruct(std::vector<float>&& xyz, const Params& params, Stats* stats,
+                                const std::vector<ParticleAttribute>& attributes) {
+    if (xyz.size() % 3 != 0)
+        throw Error("positions: " + std::to_string(xyz.size()) + " floats are not x, y, z triplets");
+    std::vector<float> owned = std::move(xyz);
+    const bool read_later = params.normals != NormalMode::None || !attributes.empty();
+    impl_->release_after_binning = read_later ? nullptr : &owned;
+    struct Forget {  // whatever happens, the Impl does not keep a pointer to this frame's vector
+        Impl& impl;
+        ~Forget() { impl.release_after_binning = nullptr; }
+    } forget{*impl_};
+    return reconstruct(owned.data(), owned.size() / 3, params, stats, attributes);
 }
 
 Mesh Reconstructor::reconstruct(const float* xyz, std::size_t count, const Params& params, Stats* stats,
