@@ -114,7 +114,8 @@ void order_bins(const std::vector<cl_uint>& counts, const std::vector<cl_ulong>&
 
 }  // namespace
 
-BinnedParticles bin_particles(OpenCLRuntime& rt, const float* xyz, std::size_t particles, glm::dvec3 origin, float cell) {
+BinnedParticles bin_particles(OpenCLRuntime& rt, const float* xyz, std::size_t particles, glm::dvec3 origin, float cell,
+                              const std::function<void()>& uploaded) {
     BinnedParticles b;
     b.count = particles;
     b.cell = cell;
@@ -128,6 +129,7 @@ BinnedParticles bin_particles(OpenCLRuntime& rt, const float* xyz, std::size_t p
         p[i] = {{v.x, v.y, v.z, 0.0f}};
     }
     rt.queue().enqueueUnmapMemObject(pos, p);
+    if (uploaded) uploaded();
     DeviceBuffer slot_of = rt.buffer(n * sizeof(cl_int), "particle bins");
 
     b.bins = insert_growing(rt, b.count / 4, "particle bin hash", [&](DeviceHash& h) {

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -28,7 +29,7 @@ struct BinnedParticles {
     std::size_t count = 0;
     float cell = 0.0f;      ///< bin edge (the kernel radius R)
     DeviceBuffer sorted;      ///< float4 positions in bin order
-    DeviceBuffer order;       ///< uint: sorted index -> input index
+    DeviceBuffer order;       ///< uint: sorted index -> input index (the pipeline drops it after binning)
     DeviceHash bins;        ///< occupied bins
     DeviceBuffer range;       ///< uint2 per bin slot: first sorted index, count
     DeviceBuffer occupied;    ///< uint: the slots of the non-empty bins
@@ -36,8 +37,10 @@ struct BinnedParticles {
     std::uint64_t pair_load = 0;  ///< sum over bins of count^2: the neighbour work, before it is done
 };
 /// Stage 1 on `n` particles (x, y, z floats), uploaded relative to `origin` (subtracted in double
-/// precision) straight into the device buffer: no host copy of them.
-BinnedParticles bin_particles(OpenCLRuntime& rt, const float* xyz, std::size_t n, glm::dvec3 origin, float cell);
+/// precision) straight into the device buffer: no host copy of them. `uploaded`, when given, is
+/// called once `xyz` is no longer read (the caller may free it there).
+BinnedParticles bin_particles(OpenCLRuntime& rt, const float* xyz, std::size_t n, glm::dvec3 origin, float cell,
+                              const std::function<void()>& uploaded = {});
 
 /// Stage 2: colour-field gradient (xyz) and neighbour count (w) per sorted particle; flags bit 0
 /// surface, bit 1 splash.

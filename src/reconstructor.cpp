@@ -288,7 +288,7 @@ struct Reconstructor::Impl {
     explicit Impl(int device) : rt(device) {}
     OpenCLRuntime rt;
     LevelHistory history;  ///< levels of the previous frame (adaptive mode)
-    /// Positions handed over by reconstruct(std::vector<float>&&), freed once binned (null: none).
+    /// Positions handed over by reconstruct(std::vector<float>&&), freed once uploaded (null: none).
     std::vector<float>* release_after_binning = nullptr;
     Params history_params;
     float user_radius = 0.0f;  ///< the radius as given, for messages (the pipeline may run scaled)
@@ -437,12 +437,12 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
 
     rt.set_stage("binning");
     check_host(double(n) * sizeof(glm::vec4), host, "uploading " + std::to_string(n) + " particles");
-    BinnedParticles bins = bin_particles(rt, xyz, n, g.origin, R);
-    if (keep_levels && release_after_binning) {  // one lattice: nothing reads the positions again
+    BinnedParticles bins = bin_particles(rt, xyz, n, g.origin, R, [&] {
+        if (!keep_levels || !release_after_binning) return;  // one lattice: nothing reads them again
         std::vector<float>().swap(*release_after_binning);
         release_after_binning = nullptr;
-        xyz = nullptr;
-    }
+    });
+    bins.order = DeviceBuffer{};  // sorted -> input index: only the tests read it
     // Neighbour sums cost sum(count^2) over bins of edge R; at a rest spacing of 2r a bin holds
     // (K/2)^3 particles. Far more means every particle sees thousands of others: a radius far too
     // large, or a pile of particles, that would run for hours instead of failing.
