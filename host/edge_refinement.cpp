@@ -15,8 +15,8 @@ namespace trilevel {
 namespace {
 
 struct Scratch {
-    std::vector<std::uint64_t> keys;
-    std::vector<const float*> values;
+    std::vector<std::uint64_t> keys, mids;
+    std::vector<const float*> values, found;
 };
 
 /// Midpoints of the crossed level-2 edges of one level-2 cell not in `field` yet, tagged with the
@@ -28,6 +28,7 @@ void cell_midpoints(const CoarseCell& cell, std::uint32_t index, int cs, const F
     const glm::ivec3 base = cell.coord * cs;
     find_level2_points(field, cell.coord, cs, s.keys, s.values);
     const int step[3] = {1, m, m * m};
+    s.mids.clear();
     for (int z = 0, i = 0; z < m; ++z)
         for (int y = 0; y < m; ++y)
             for (int x = 0; x < m; ++x, ++i) {
@@ -38,9 +39,13 @@ void cell_midpoints(const CoarseCell& cell, std::uint32_t index, int cs, const F
                     if (!va || !vb || mc::inside(*va) == mc::inside(*vb)) continue;
                     glm::ivec3 mid = base + 2 * o;
                     mid[axis] += 1;
-                    if (!field.find(mid)) out.emplace_back(lattice::pack(mid), index);
+                    s.mids.push_back(lattice::pack(mid));
                 }
             }
+    s.found.resize(s.mids.size());
+    find_batch(field, s.mids.data(), s.mids.size(), s.found.data());  // their misses overlap
+    for (std::size_t k = 0; k < s.mids.size(); ++k)
+        if (!s.found[k]) out.emplace_back(s.mids[k], index);
 }
 
 }  // namespace
@@ -50,11 +55,17 @@ Level2Midpoints level2_crossing_midpoints(const std::vector<CoarseCell>& cells, 
     using Tagged = std::pair<std::uint64_t, std::uint32_t>;  // key, index of a cell holding it
     tbb::enumerable_thread_specific<std::vector<Tagged>> found;
     tbb::enumerable_thread_specific<Scratch> scratch;
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 64), [&](const auto& range) {
+    // Visited in Morton order, so that neighbouring cells, which share most level-2 points, run
+    // close in time; the lists below do not depend on the order of the visit.
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> visit;
+    for (std::size_t i = 0; i < cells.size(); ++i)
+        if (cells[i].level == 2) visit.emplace_back(lattice::morton(cells[i].coord), std::uint32_t(i));
+    tbb::parallel_sort(visit.begin(), visit.end());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, visit.size(), 64), [&](const auto& range) {
         auto& out = found.local();
         auto& s = scratch.local();
-        for (std::size_t i = range.begin(); i != range.end(); ++i)
-            if (cells[i].level == 2) cell_midpoints(cells[i], std::uint32_t(i), frame.coarse_steps, field, s, out);
+        for (std::size_t k = range.begin(); k != range.end(); ++k)
+            cell_midpoints(cells[visit[k].second], visit[k].second, frame.coarse_steps, field, s, out);
     });
     std::vector<Tagged> all;
     std::vector<std::uint8_t> holds(cells.size(), 0);

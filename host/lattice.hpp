@@ -49,6 +49,21 @@ inline std::uint64_t hash(std::uint64_t k) {
     return (k << 3) | in_block;
 }
 
+/// Morton (z-order) code of non-negative coordinates below 2^21: cells or bins that are near in
+/// space are near in this order, which is how the stages lay out and visit them for the caches.
+inline std::uint64_t morton(glm::ivec3 c) {
+    auto spread = [](std::uint64_t v) {  // the low 21 bits of v to every third bit
+        v &= 0x1fffff;
+        v = (v | v << 32) & 0x1f00000000ffffULL;
+        v = (v | v << 16) & 0x1f0000ff0000ffULL;
+        v = (v | v << 8) & 0x100f00f00f00f00fULL;
+        v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
+        v = (v | v << 2) & 0x1249249249249249ULL;
+        return v;
+    };
+    return spread(std::uint64_t(c.x)) | spread(std::uint64_t(c.y)) << 1 | spread(std::uint64_t(c.z)) << 2;
+}
+
 /// A vertex lies on the lattice edge from point `p` to p + unit(axis): key = point key | axis << 60.
 inline std::uint64_t edge_key(glm::ivec3 p, int axis) { return pack(p) | (std::uint64_t(axis) << 60); }
 

@@ -73,22 +73,6 @@ void set_candidate_args(OpenCLRuntime& rt, cl::Kernel& k, cl_uint first) {
     k.setArg(first + 3, cl::Local(sizeof(cl_uint)));
 }
 
-/// Spreads the low 21 bits of v to every third bit (Morton code helper).
-std::uint64_t spread3(std::uint64_t v) {
-    v &= 0x1fffff;
-    v = (v | v << 32) & 0x1f00000000ffffULL;
-    v = (v | v << 16) & 0x1f0000ff0000ffULL;
-    v = (v | v << 8) & 0x100f00f00f00f00fULL;
-    v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
-    v = (v | v << 2) & 0x1249249249249249ULL;
-    return v;
-}
-
-/// Morton (z-order) code of non-negative lattice coordinates.
-std::uint64_t morton(glm::ivec3 c) {
-    return spread3(std::uint64_t(c.x)) | spread3(std::uint64_t(c.y)) << 1 | spread3(std::uint64_t(c.z)) << 2;
-}
-
 /// The occupied bin slots in Morton order of their coordinates, and each slot's (first, count)
 /// range laid out in that order: bins near in space are then near in memory and in the order
 /// work-groups take them, so a bin's 27-bin gather mostly finds its neighbours' particles in
@@ -98,7 +82,7 @@ void order_bins(const std::vector<cl_uint>& counts, const std::vector<cl_ulong>&
     std::vector<std::pair<std::uint64_t, cl_uint>> order;
     for (std::size_t s = 0; s < counts.size(); ++s)
         if (counts[s]) {
-            order.emplace_back(morton(lattice::unpack(keys[s])), cl_uint(s));
+            order.emplace_back(lattice::morton(lattice::unpack(keys[s])), cl_uint(s));
         }
     tbb::parallel_sort(order.begin(), order.end());
     range.assign(counts.size(), {{0, 0}});
@@ -308,7 +292,7 @@ DeviceBuffer cell_buffer(OpenCLRuntime& rt, const std::vector<CoarseCell>& cells
     for (const auto& c : cells) data.push_back({{c.coord.x, c.coord.y, c.coord.z, c.level}});
     if (in_morton_order)
         tbb::parallel_sort(data.begin(), data.end(), [](const cl_int4& a, const cl_int4& b) {
-            return morton(glm::ivec3(a.s[0], a.s[1], a.s[2])) < morton(glm::ivec3(b.s[0], b.s[1], b.s[2]));
+            return lattice::morton(glm::ivec3(a.s[0], a.s[1], a.s[2])) < lattice::morton(glm::ivec3(b.s[0], b.s[1], b.s[2]));
         });
     DeviceBuffer buf = rt.buffer(data.size() * sizeof(cl_int4), "cell list");
     rt.queue().enqueueWriteBuffer(buf, CL_TRUE, 0, data.size() * sizeof(cl_int4), data.data());
