@@ -281,8 +281,6 @@ void grow_fine_points(OpenCLRuntime& rt, FinePoints& p, std::size_t capacity) {
     p.values = std::move(values);
 }
 
-}  // namespace
-
 /// Cells as int4 (x, y, z, level) on the device.
 /// `in_morton_order`: the cells in Morton order of their coordinates instead of the given order,
 /// where nothing but the work-groups' memory locality depends on it (neighbouring cells then
@@ -339,6 +337,8 @@ bool evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf
     if (overflow_seen) evaluate_cells(rt, p, cell_buf, cell_count, ClaimPoints::Level, frame, b, r, R);
     return true;
 }
+
+}  // namespace
 
 void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<CoarseCell>& cells,
                          const LatticeFrame& frame, const BinnedParticles& b, float r, float R, ClaimPoints claim) {
