@@ -91,11 +91,13 @@ __kernel void scalar_field(__global const uint* pending, uint count, __global co
 // that influence the cell's points lie within R of the cell box). A point shared by several cells
 // is evaluated once: in the main pass (CLAIM_INSERTED) by the work-group whose insert created it,
 // which spares the separate insert pass and a second table lookup per point; in the other passes
-// by the work-group that claims it first (its NaN "pending" value becomes CLAIMED). Each work-item then evaluates LANES claimed points at once, one per vector lane: every
-// lane adds its neighbours in candidate order (bins in z, y, x order, each in index order), so a
-// point's value does not depend on its lane or its partners. A cell whose candidates do not fit
-// claims nothing and raises `overflow`; the host then evaluates what is left with the per-point
-// kernel above, so which kernel evaluates a point depends only on the cells, never on timing.
+// by the work-group that claims it first (its NaN "pending" value becomes CLAIMED). Each
+// work-item then evaluates LANES claimed points at once, one per vector lane: every lane adds its
+// neighbours in candidate order (bins in z, y, x order, each in index order), so a point's value
+// does not depend on its lane or its partners. A cell whose candidates do not fit claims nothing
+// (what it inserted stays pending) and raises `overflow`; the host then lets the other cells claim
+// what is left and evaluates the rest with the per-point kernel above, so which kernel evaluates a
+// point depends only on the cells, never on timing.
 #define PENDING_BITS 0x7fc00000u
 #define CLAIMED_BITS 0x7fc00001u
 #define LANES 8
