@@ -57,15 +57,15 @@ Level2Midpoints level2_crossing_midpoints(const std::vector<CoarseCell>& cells, 
     tbb::enumerable_thread_specific<Scratch> scratch;
     // Visited in Morton order, so that neighbouring cells, which share most level-2 points, run
     // close in time; the lists below do not depend on the order of the visit.
-    std::vector<std::pair<std::uint64_t, std::uint32_t>> visit;
+    std::vector<std::uint32_t> visit;
     for (std::size_t i = 0; i < cells.size(); ++i)
-        if (cells[i].level == 2) visit.emplace_back(lattice::morton(cells[i].coord), std::uint32_t(i));
-    tbb::parallel_sort(visit.begin(), visit.end());
+        if (cells[i].level == 2) visit.push_back(std::uint32_t(i));
+    lattice::sort_by_morton(visit, [&](std::uint32_t i) { return cells[i].coord; });
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, visit.size(), 64), [&](const auto& range) {
         auto& out = found.local();
         auto& s = scratch.local();
         for (std::size_t k = range.begin(); k != range.end(); ++k)
-            cell_midpoints(cells[visit[k].second], visit[k].second, frame.coarse_steps, field, s, out);
+            cell_midpoints(cells[visit[k]], visit[k], frame.coarse_steps, field, s, out);
     });
     std::vector<Tagged> all;
     std::vector<std::uint8_t> holds(cells.size(), 0);

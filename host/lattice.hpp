@@ -8,8 +8,11 @@
 #pragma once
 
 #include <cstdint>
+#include <utility>
+#include <vector>
 
 #include <glm/glm.hpp>
+#include <tbb/parallel_sort.h>
 
 namespace trilevel::lattice {
 
@@ -62,6 +65,19 @@ inline std::uint64_t morton(glm::ivec3 c) {
         return v;
     };
     return spread(std::uint64_t(c.x)) | spread(std::uint64_t(c.y)) << 1 | spread(std::uint64_t(c.z)) << 2;
+}
+
+/// Sorts `items` by the Morton code of coord(item), each code computed once (equal codes keep
+/// their order). For layouts and visits where only memory locality depends on the order.
+template <class T, class Coord>
+void sort_by_morton(std::vector<T>& items, Coord coord) {
+    std::vector<std::pair<std::uint64_t, std::size_t>> order(items.size());
+    for (std::size_t i = 0; i < items.size(); ++i) order[i] = {morton(coord(items[i])), i};
+    tbb::parallel_sort(order.begin(), order.end());
+    std::vector<T> sorted;
+    sorted.reserve(items.size());
+    for (const auto& o : order) sorted.push_back(items[o.second]);
+    items.swap(sorted);
 }
 
 /// A vertex lies on the lattice edge from point `p` to p + unit(axis): key = point key | axis << 60.

@@ -1,7 +1,5 @@
 #include "device_stages.hpp"
 
-#include <tbb/parallel_sort.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -79,18 +77,13 @@ void set_candidate_args(OpenCLRuntime& rt, cl::Kernel& k, cl_uint first) {
 /// cache. Sums do not change: a gather orders candidates by bin position, not by range.
 void order_bins(const std::vector<cl_uint>& counts, const std::vector<cl_ulong>& keys, std::vector<cl_uint>& occupied,
                 std::vector<cl_uint2>& range) {
-    std::vector<std::pair<std::uint64_t, cl_uint>> order;
-    for (std::size_t s = 0; s < counts.size(); ++s)
-        if (counts[s]) {
-            order.emplace_back(lattice::morton(lattice::unpack(keys[s])), cl_uint(s));
-        }
-    tbb::parallel_sort(order.begin(), order.end());
-    range.assign(counts.size(), {{0, 0}});
     occupied.clear();
-    occupied.reserve(order.size());
+    for (std::size_t s = 0; s < counts.size(); ++s)
+        if (counts[s]) occupied.push_back(cl_uint(s));
+    lattice::sort_by_morton(occupied, [&](cl_uint s) { return lattice::unpack(keys[s]); });
+    range.assign(counts.size(), {{0, 0}});
     cl_uint sum = 0;
-    for (const auto& [code, s] : order) {
-        occupied.push_back(s);
+    for (cl_uint s : occupied) {
         range[s] = {{sum, counts[s]}};
         sum += counts[s];
     }
@@ -288,10 +281,7 @@ void grow_fine_points(OpenCLRuntime& rt, FinePoints& p, std::size_t capacity) {
 DeviceBuffer cell_buffer(OpenCLRuntime& rt, const std::vector<CoarseCell>& cells, bool in_morton_order = false) {
     std::vector<cl_int4> data;
     for (const auto& c : cells) data.push_back({{c.coord.x, c.coord.y, c.coord.z, c.level}});
-    if (in_morton_order)
-        tbb::parallel_sort(data.begin(), data.end(), [](const cl_int4& a, const cl_int4& b) {
-            return lattice::morton(glm::ivec3(a.s[0], a.s[1], a.s[2])) < lattice::morton(glm::ivec3(b.s[0], b.s[1], b.s[2]));
-        });
+    if (in_morton_order) lattice::sort_by_morton(data, [](const cl_int4& c) { return glm::ivec3(c.s[0], c.s[1], c.s[2]); });
     DeviceBuffer buf = rt.buffer(data.size() * sizeof(cl_int4), "cell list");
     rt.queue().enqueueWriteBuffer(buf, CL_TRUE, 0, data.size() * sizeof(cl_int4), data.data());
     return buf;
