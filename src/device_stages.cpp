@@ -311,20 +311,20 @@ bool evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf
     k.setArg(24, listed ? listed->slots : cell_buf);
     rt.run_groups("scalar_field_cells", cell_count, kCellGroup);
     const bool overflow_seen = read_buffer<cl_int>(rt, overflow, 1)[0] != 0;
-    if (claim == ClaimPoints::Listed && overflow_seen) {  // as below: other holders claim what is left
-        evaluate_cells(rt, p, cell_buf, cell_count, ClaimPoints::EdgeMidpoints, frame, b, r, R);
-        return true;
+    if (claim == ClaimPoints::Inserted) {
+        const HashCounters c = read_counters(rt, p.hash);
+        p.inserted = c.inserted;
+        if (c.overflow) return false;
     }
-    if (claim != ClaimPoints::Inserted) {
-        if (overflow_seen) evaluate_pending(rt, p, frame, b, r, R);
-        return true;
-    }
-    const HashCounters c = read_counters(rt, p.hash);
-    p.inserted = c.inserted;
-    if (c.overflow) return false;
-    // Points created by a cell whose candidates did not fit are still pending: the other cells
-    // that hold them claim them, as in the separate passes, so no point's kernel depends on timing.
-    if (overflow_seen) evaluate_cells(rt, p, cell_buf, cell_count, ClaimPoints::Level, frame, b, r, R);
+    if (!overflow_seen) return true;
+    // Points left pending by a cell whose candidates did not fit: in the passes that assign points
+    // (created or listed) the other cells holding them claim them, as the claiming passes do; what
+    // no cell can take goes to the per-point kernel. So no point's kernel depends on timing.
+    if (claim == ClaimPoints::Inserted || claim == ClaimPoints::Listed)
+        evaluate_cells(rt, p, cell_buf, cell_count,
+                       claim == ClaimPoints::Inserted ? ClaimPoints::Level : ClaimPoints::EdgeMidpoints, frame, b, r, R);
+    else
+        evaluate_pending(rt, p, frame, b, r, R);
     return true;
 }
 
@@ -342,8 +342,7 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<Coa
     if (p.hash.capacity < want) grow_fine_points(rt, p, want);
     if (claim == ClaimPoints::Level) {  // one pass: each cell inserts its points and evaluates those it created
         if (evaluate_cells(rt, p, cell_buf, cells.size(), ClaimPoints::Inserted, frame, b, r, R)) {
-            const HashCounters c = read_counters(rt, p.hash);
-            if (needs_growth(c, p.hash)) grow_fine_points(rt, p, next_pow2(c.inserted * 2 + 1));
+            if (p.inserted * 2 > p.hash.capacity) grow_fine_points(rt, p, next_pow2(p.inserted * 2 + 1));
             rt.finish();
             return;
         }
