@@ -288,8 +288,9 @@ struct Reconstructor::Impl {
     explicit Impl(int device) : rt(device) {}
     OpenCLRuntime rt;
     LevelHistory history;  ///< levels of the previous frame (adaptive mode)
-    /// Positions handed over by reconstruct(std::vector<float>&&), freed once uploaded (null: none).
-    std::vector<float>* release_after_binning = nullptr;
+    /// Positions handed over by reconstruct(std::vector<float>&&), freed once run() has uploaded
+    /// them (null: none, or normals or attributes read them later).
+    std::vector<float>* handed_over = nullptr;
     Params history_params;
     float user_radius = 0.0f;  ///< the radius as given, for messages (the pipeline may run scaled)
     Mesh frame(const float* xyz, std::size_t n, const Params& p, Stats& s);
@@ -298,6 +299,13 @@ struct Reconstructor::Impl {
     /// domain, each on a lattice of its own).
     Mesh run(const float* xyz, std::size_t n, const Params& p, const Grid& g, Stats& s, bool keep_levels = true);
     void remember_levels(const std::vector<CoarseCell>& cells, const Grid& g, const Params& p, Stats& s);
+    /// Frees the handed-over positions once copied or uploaded, when `xyz` are they (a split
+    /// domain's groups are copies, and its later groups still read the original).
+    void release_input(const float* xyz) {
+        if (!handed_over || handed_over->data() != xyz) return;
+        std::vector<float>().swap(*handed_over);
+        handed_over = nullptr;
+    }
 };
 
 namespace {
@@ -381,6 +389,7 @@ Mesh Reconstructor::Impl::frame(const float* xyz, std::size_t n, const Params& p
     if (k == 0) return domain(xyz, n, p, s, b);
     check_host(double(n) * 12, double(host_budget(p)), "a scaled copy of " + std::to_string(n) + " particles");
     std::vector<float> scaled(xyz, xyz + 3 * n);
+    release_input(xyz);
     for (float& v : scaled) v = std::ldexp(v, k);
     Params q = p;
     q.particle_radius = std::ldexp(p.particle_radius, k);
@@ -437,11 +446,7 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
 
     rt.set_stage("binning");
     check_host(double(n) * sizeof(glm::vec4), host, "uploading " + std::to_string(n) + " particles");
-    BinnedParticles bins = bin_particles(rt, xyz, n, g.origin, R, [&] {
-        if (!keep_levels || !release_after_binning) return;  // one lattice: nothing reads them again
-        std::vector<float>().swap(*release_after_binning);
-        release_after_binning = nullptr;
-    });
+    BinnedParticles bins = bin_particles(rt, xyz, n, g.origin, R, [&] { release_input(xyz); });
     bins.order = DeviceBuffer{};  // sorted -> input index: only the tests read it
     // Neighbour sums cost sum(count^2) over bins of edge R; at a rest spacing of 2r a bin holds
     // (K/2)^3 particles. Far more means every particle sees thousands of others: a radius far too
@@ -536,10 +541,10 @@ Mesh Reconstructor::reconstruct(std::vector<float>&& xyz, const Params& params, 
         throw Error("positions: " + std::to_string(xyz.size()) + " floats are not x, y, z triplets");
     std::vector<float> owned = std::move(xyz);
     const bool read_later = params.normals != NormalMode::None || !attributes.empty();
-    impl_->release_after_binning = read_later ? nullptr : &owned;
+    impl_->handed_over = read_later ? nullptr : &owned;
     struct Forget {  // whatever happens, the Impl does not keep a pointer to this frame's vector
         Impl& impl;
-        ~Forget() { impl.release_after_binning = nullptr; }
+        ~Forget() { impl.handed_over = nullptr; }
     } forget{*impl_};
     return reconstruct(owned.data(), owned.size() / 3, params, stats, attributes);
 }
