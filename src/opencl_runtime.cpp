@@ -1,10 +1,10 @@
 #include "opencl_runtime.hpp"
 
-#include <cstring>
 #include <algorithm>
 #include <atomic>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <sstream>
 #include <string_view>
 
