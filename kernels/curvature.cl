@@ -46,6 +46,29 @@ inline float curvature_global(uint i, __global const float4* sorted, float inv_c
     return kap;
 }
 
+// Paper eq. 3: adds surface particle i's kappa to the sum and count of the coarse cell it lies in,
+// and to the cell's largest kappa (as float bits: non-negative floats order like their bits).
+// Fixed-point sums do not depend on the order of the adds (DESIGN §6).
+inline void add_to_cell(float3 x, float kap, float inv_coarse, __global const ulong* cell_keys, ulong cell_mask,
+                        volatile __global ulong* kappa_sum, volatile __global uint* kappa_count,
+                        volatile __global uint* kappa_max) {
+    long s = hash_find(cell_keys, cell_mask, pack_key(coarse_of(x, inv_coarse)));
+    if (s < 0) return;
+    atom_add(&kappa_sum[s], (ulong)(kap * KAPPA_FIXED + 0.5f));
+    atomic_inc(&kappa_count[s]);
+    atomic_max(&kappa_max[s], as_uint(kap));
+}
+
+// What particle_curvature does with particle i's kappa: into its cell's sums, so that no array of n
+// floats is needed, and into kappa[i] only when the caller asked for them (tests, diagnostics).
+#define CURVATURE_RESULT(i, kap)                                                                          \
+    {                                                                                                     \
+        if (flags[i] & FLAG_SURFACE)                                                                      \
+            add_to_cell(sorted[i].xyz, (kap), inv_coarse, cell_keys, cell_mask, kappa_sum, kappa_count, \
+                        kappa_max);                                                                       \
+        if (keep_kappa) kappa[i] = (kap);                                                                 \
+    }
+
 // Paper eq. 1-2: kappa_i = sum_j (1 - n_i . n_j) W(x_ij, h), W = max(0, 1 - |x_ij|/h), h = R, over
 // the surface neighbours j. Work-groups take bins in turn with candidates (positions and
 // normals) in local memory; a work-item takes 8 particles at once, one per vector lane, each
@@ -53,9 +76,12 @@ inline float curvature_global(uint i, __global const float4* sorted, float inv_c
 __kernel void particle_curvature(__global const float4* sorted, __global const uchar* flags,
                                  __global const uint* occupied, uint occupied_count, uint per_group, float inv_cell,
                                  __global const ulong* bin_keys, ulong bin_mask, __global const uint2* range,
-                                 __global const float4* normals, float R,
-                                 __global float* kappa, __local float4* cand, __local uint* bin_first,
-                                 __local uint* bin_slot, __local uint* count, __local float4* cand_normal) {
+                                 __global const float4* normals, float R, uint keep_kappa,
+                                 __local float4* cand, __local uint* bin_first, __local uint* bin_slot,
+                                 __local uint* count, __local float4* cand_normal, float inv_coarse,
+                                 __global const ulong* cell_keys, ulong cell_mask, volatile __global ulong* kappa_sum,
+                                 volatile __global uint* kappa_count, volatile __global uint* kappa_max,
+                                 __global float* kappa) {
     const uint lid = get_local_id(0), lsize = get_local_size(0);
     const uint first_bin = get_group_id(0) * per_group;
     for (uint ob = first_bin; ob < min(first_bin + per_group, occupied_count); ++ob) {
@@ -64,7 +90,7 @@ __kernel void particle_curvature(__global const float4* sorted, __global const u
         uint surface = 0;  // most bins lie inside the fluid: nothing to do there
         for (uint k = 0; k < own.y; ++k) surface |= flags[own.x + k] & FLAG_SURFACE;
         if (!surface) {
-            for (uint k = lid; k < own.y; k += lsize) kappa[own.x + k] = 0.0f;
+            for (uint k = lid; keep_kappa && k < own.y; k += lsize) kappa[own.x + k] = 0.0f;
             continue;
         }
         const int3 bin = cell_of(sorted[own.x], inv_cell);
@@ -73,9 +99,10 @@ __kernel void particle_curvature(__global const float4* sorted, __global const u
         if (n_cand > MAX_CANDIDATES) {
             for (uint k = lid; k < own.y; k += lsize) {
                 const uint i = own.x + k;
-                kappa[i] = (flags[i] & FLAG_SURFACE)
-                               ? curvature_global(i, sorted, inv_cell, bin_keys, bin_mask, range, normals, R)
-                               : 0.0f;
+                const float kap = (flags[i] & FLAG_SURFACE)
+                                      ? curvature_global(i, sorted, inv_cell, bin_keys, bin_mask, range, normals, R)
+                                      : 0.0f;
+                CURVATURE_RESULT(i, kap);
             }
             continue;
         }
@@ -108,26 +135,10 @@ __kernel void particle_curvature(__global const float4* sorted, __global const u
             vstore8(kap, 0, out);
             for (uint l = 0; l < 8 && first + l < own.y; ++l) {
                 const uint i = own.x + first + l;
-                kappa[i] = (flags[i] & FLAG_SURFACE) ? out[l] : 0.0f;
+                CURVATURE_RESULT(i, (flags[i] & FLAG_SURFACE) ? out[l] : 0.0f);
             }
         }
     }
-}
-
-// Paper eq. 3: sums and counts of kappa over the surface particles inside each coarse cell, and
-// the largest kappa (as float bits: non-negative floats order like their bits).
-__kernel void accumulate_cell_curvature(__global const float4* sorted, __global const uchar* flags, uint n,
-                                        float inv_coarse, __global const float* kappa,
-                                        __global const ulong* cell_keys, ulong cell_mask,
-                                        volatile __global ulong* kappa_sum, volatile __global uint* kappa_count,
-                                        volatile __global uint* kappa_max) {
-    uint i = get_global_id(0);
-    if (i >= n || (flags[i] & FLAG_SURFACE) == 0) return;
-    long s = hash_find(cell_keys, cell_mask, pack_key(coarse_of(sorted[i].xyz, inv_coarse)));
-    if (s < 0) return;
-    atom_add(&kappa_sum[s], (ulong)(kappa[i] * KAPPA_FIXED + 0.5f));
-    atomic_inc(&kappa_count[s]);
-    atomic_max(&kappa_max[s], as_uint(kappa[i]));
 }
 
 // Paper eq. 3 per coarse cell. A cell without surface particles takes the largest curvature found

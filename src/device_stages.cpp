@@ -19,9 +19,13 @@ std::size_t next_pow2(std::size_t v) {
 }
 
 template <class... Args>
-void set_args(cl::Kernel& k, const Args&... args) {
-    cl_uint i = 0;
+void set_args_from(cl::Kernel& k, cl_uint first, const Args&... args) {
+    cl_uint i = first;
     (k.setArg(i++, args), ...);
+}
+template <class... Args>
+void set_args(cl::Kernel& k, const Args&... args) {
+    set_args_from(k, 0, args...);
 }
 
 DeviceHash make_hash(OpenCLRuntime& rt, std::size_t capacity, const char* what,
@@ -119,20 +123,24 @@ BinnedParticles bin_particles(OpenCLRuntime& rt, const float* xyz, std::size_t p
     set_args(rt.kernel("bin_count"), slot_of, n, count);
     rt.run("bin_count", n);
 
-    auto counts = read_buffer<cl_uint>(rt, count, cap);
-    std::vector<cl_uint> occupied;
-    std::vector<cl_uint2> range;
-    order_bins(counts, read_buffer<cl_ulong>(rt, b.bins.keys, cap), occupied, range);
-    for (cl_uint s : occupied) b.pair_load += std::uint64_t(counts[s]) * counts[s];
-    b.occupied_count = occupied.size();
-    b.occupied = rt.buffer(occupied.size() * sizeof(cl_uint), "occupied bins");
-    rt.queue().enqueueWriteBuffer(b.occupied, CL_TRUE, 0, occupied.size() * sizeof(cl_uint), occupied.data());
-    b.range = rt.buffer(cap * sizeof(cl_uint2), "bin ranges");
-    rt.queue().enqueueWriteBuffer(b.range, CL_TRUE, 0, cap * sizeof(cl_uint2), range.data());
+    {  // host copies, freed before the device buffers below are allocated
+        auto counts = read_buffer<cl_uint>(rt, count, cap);
+        std::vector<cl_uint> occupied;
+        std::vector<cl_uint2> range;
+        order_bins(counts, read_buffer<cl_ulong>(rt, b.bins.keys, cap), occupied, range);
+        for (cl_uint s : occupied) b.pair_load += std::uint64_t(counts[s]) * counts[s];
+        b.occupied_count = occupied.size();
+        b.occupied = rt.buffer(occupied.size() * sizeof(cl_uint), "occupied bins");
+        rt.queue().enqueueWriteBuffer(b.occupied, CL_TRUE, 0, occupied.size() * sizeof(cl_uint), occupied.data());
+        b.range = rt.buffer(cap * sizeof(cl_uint2), "bin ranges");
+        rt.queue().enqueueWriteBuffer(b.range, CL_TRUE, 0, cap * sizeof(cl_uint2), range.data());
+    }
     rt.queue().enqueueFillBuffer(count, cl_uint{0}, 0, cap * sizeof(cl_uint));
     b.order = rt.buffer(n * sizeof(cl_uint), "particle order");
     set_args(rt.kernel("bin_scatter"), slot_of, n, b.range, count, b.order);
     rt.run("bin_scatter", n);
+    slot_of = DeviceBuffer{};  // not needed once scattered: the gather below is the stage's peak
+    count = DeviceBuffer{};
     set_args(rt.kernel("bin_sort_buckets"), b.range, cl_ulong(cap), b.order);
     rt.run("bin_sort_buckets", cap);
     b.sorted = rt.buffer(n * sizeof(cl_float4), "sorted positions");
@@ -161,30 +169,31 @@ ParticleClasses classify_particles(OpenCLRuntime& rt, const BinnedParticles& b, 
 
 namespace {
 
-/// Stage 4 on the device: per-particle curvature, per-cell mean, levels (paper eq. 1-3).
+/// Stage 4 on the device: per-particle curvature summed into the coarse cells, per-cell mean, levels
+/// (paper eq. 1-3). With keep_kappa the per-particle curvature is also written to `kappa`.
 void cell_curvature_levels(OpenCLRuntime& rt, const BinnedParticles& b, ParticleClasses& c,
                            const DeviceHash& cells, const cl::Buffer& cell_flags, float R, float inv_coarse,
-                           float threshold, DeviceBuffer& level, DeviceBuffer& cell_kappa, DeviceBuffer& kappa) {
+                           float threshold, DeviceBuffer& level, DeviceBuffer& cell_kappa, bool keep_kappa,
+                           DeviceBuffer& kappa) {
     const cl_uint n = cl_uint(b.count);
     const std::size_t cap = cells.capacity;
-    kappa = rt.buffer(n * sizeof(cl_float), "particle curvature");
-    const cl::Buffer& normals = c.gradient;  // turned into normals in place
-    set_args(rt.kernel("particle_normals"), c.gradient, c.flags, n);
-    rt.run("particle_normals", n);
-    set_args(rt.kernel("particle_curvature"), b.sorted, c.flags, b.occupied, cl_uint(b.occupied_count),
-             cl_uint(kBinsPerGroup), 1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.mask()), b.range, normals, R, kappa);
-    set_candidate_args(rt, rt.kernel("particle_curvature"), 12);
-    rt.kernel("particle_curvature").setArg(16, cl::Local(rt.max_candidates() * sizeof(cl_float4)));  // normals
-    rt.run_groups("particle_curvature", (b.occupied_count + kBinsPerGroup - 1) / kBinsPerGroup, kBinGroup);
     DeviceBuffer sum = rt.buffer(cap * sizeof(cl_ulong), "cell curvature sums");
     DeviceBuffer cnt = rt.buffer(cap * sizeof(cl_uint), "cell curvature counts");
     DeviceBuffer mx = rt.buffer(cap * sizeof(cl_uint), "cell curvature maxima");
     rt.queue().enqueueFillBuffer(sum, cl_ulong{0}, 0, cap * sizeof(cl_ulong));
     rt.queue().enqueueFillBuffer(cnt, cl_uint{0}, 0, cap * sizeof(cl_uint));
     rt.queue().enqueueFillBuffer(mx, cl_uint{0}, 0, cap * sizeof(cl_uint));
-    set_args(rt.kernel("accumulate_cell_curvature"), b.sorted, c.flags, n, inv_coarse, kappa, cells.keys,
-             cl_ulong(cells.mask()), sum, cnt, mx);
-    rt.run("accumulate_cell_curvature", n);
+    kappa = rt.buffer(keep_kappa ? n * sizeof(cl_float) : sizeof(cl_float), "particle curvature");
+    const cl::Buffer& normals = c.gradient;  // turned into normals in place
+    set_args(rt.kernel("particle_normals"), c.gradient, c.flags, n);
+    rt.run("particle_normals", n);
+    cl::Kernel& k = rt.kernel("particle_curvature");
+    set_args(k, b.sorted, c.flags, b.occupied, cl_uint(b.occupied_count), cl_uint(kBinsPerGroup), 1.0f / b.cell,
+             b.bins.keys, cl_ulong(b.bins.mask()), b.range, normals, R, cl_uint(keep_kappa));
+    set_candidate_args(rt, k, 12);
+    k.setArg(16, cl::Local(rt.max_candidates() * sizeof(cl_float4)));  // normals
+    set_args_from(k, 17, inv_coarse, cells.keys, cl_ulong(cells.mask()), sum, cnt, mx, kappa);
+    rt.run_groups("particle_curvature", (b.occupied_count + kBinsPerGroup - 1) / kBinsPerGroup, kBinGroup);
     DeviceBuffer raw = rt.buffer(cap * sizeof(cl_float), "unsmoothed cell curvature");
     set_args(rt.kernel("cell_curvature"), cells.keys, cl_ulong(cells.mask()), sum, cnt, mx, raw);
     rt.run("cell_curvature", cap);
@@ -199,7 +208,8 @@ SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& b, Particle
     const cl_uint n = cl_uint(b.count);
     const float inv_coarse = 1.0f / coarse_edge;
     const float half_box = constants::kSurfaceBoxHalf * r;
-    DeviceHash cells = insert_growing(rt, c.surface * 2, "coarse cell hash", [&](DeviceHash& h) {
+    const auto first_capacity = std::size_t(float(c.surface + c.splash) * constants::kCoarseCellsPerSurfaceParticle);
+    DeviceHash cells = insert_growing(rt, first_capacity, "coarse cell hash", [&](DeviceHash& h) {
         set_args(rt.kernel("mark_surface_cells"), b.sorted, c.flags, n, inv_coarse, half_box, h.keys,
                  cl_ulong(h.mask()), h.stats);
         rt.run("mark_surface_cells", n);
@@ -215,7 +225,8 @@ SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& b, Particle
     SurfaceCells out;
     if (forced_level == 0) {
         cell_kappa = rt.buffer(cap * sizeof(cl_float), "coarse cell curvature");
-        cell_curvature_levels(rt, b, c, cells, flags, R, inv_coarse, threshold, level, cell_kappa, kappa);
+        cell_curvature_levels(rt, b, c, cells, flags, R, inv_coarse, threshold, level, cell_kappa,
+                              read_particle_kappa, kappa);
         if (read_particle_kappa) out.particle_kappa = read_buffer<float>(rt, kappa, n);
     }
     auto keys = read_buffer<cl_ulong>(rt, cells.keys, cap);

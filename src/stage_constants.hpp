@@ -34,6 +34,13 @@ constexpr float kSameSpot = 1.0f / 4096.0f;
 /// splash particle (paper §3, after Akinci et al. 2012: an AABB of 4r around each surface particle).
 constexpr float kSurfaceBoxHalf = 2.0f;
 
+/// First capacity of the coarse cell hash, per surface or splash particle. Large frames have 0.25-0.31
+/// coarse cells per surface particle (the dam break resampled x8 to x512), so at 3/4 their table
+/// starts at load <= 1/2 and is filled once; small splashy scenes (0.4-8 cells per particle) grow it
+/// (DESIGN §5). Twice the particle count, as before, left x512's table at load 0.15, and every
+/// per-cell buffer of stage 4 and every host read of them is as long as the table.
+constexpr float kCoarseCellsPerSurfaceParticle = 0.75f;
+
 /// Splash cells: surface cells overlapping x_i ± kSplashBoxHalf * r around a splash or thin particle
 /// (the same box that makes surface cells: the cells that hold its blob). Wider boxes (e.g. ±R)
 /// turned many more cells level 3 around droplets near the main surface, each adding crack patches,
