@@ -1,6 +1,8 @@
 // Stage 2 (DESIGN §3.1, Müller et al. 2003): colour field gradient per particle with poly6
 // weights -> surface particles and normals; fewer than SPLASH_NEIGHBOURS neighbours -> splash.
-// Runs over the binned (sorted) particles; outputs are in sorted order.
+// Runs over the binned (sorted) particles; outputs are in sorted order. Gradients are packed xyz
+// triples (3 floats a particle, not a float4): at 17.7 M particles the array is the largest one
+// alive in stages 2 and 4 after the positions.
 // Build options: SURFACE_GRADIENT, SPLASH_NEIGHBOURS, THIN_NEIGHBOURS, SAME_SPOT.
 // A neighbour closer than SAME_SPOT * R is the same spot, not a neighbour, for the splash and thin
 // counts: particles stacked on one point have no colour-field gradient at all, so without this a
@@ -48,7 +50,7 @@ inline uchar particle_flags(float3 g, int neighbours, float R) {
 __kernel void color_field(__global const float4* sorted, __global const uint* occupied, uint occupied_count,
                           uint per_group, float inv_cell,
                           __global const ulong* bin_keys, ulong bin_mask, __global const uint2* range, float R,
-                          float volume, __global float4* gradient, __global uchar* flags, __local float4* cand,
+                          float volume, __global float* gradient, __global uchar* flags, __local float4* cand,
                           __local uint* bin_first, __local uint* bin_slot, __local uint* count) {
     const float R2 = R * R, same2 = R2 * (SAME_SPOT * SAME_SPOT);
     const float grad_norm = -945.0f / (32.0f * M_PI_F * pown(R, 9)) * volume;
@@ -65,7 +67,7 @@ __kernel void color_field(__global const float4* sorted, __global const uint* oc
                 float3 g;
                 int nb;
                 color_field_global(own.x + k, sorted, inv_cell, bin_keys, bin_mask, range, R2, grad_norm, &g, &nb);
-                gradient[own.x + k] = (float4)(g, (float)nb);
+                vstore3(g, own.x + k, gradient);
                 flags[own.x + k] = particle_flags(g, nb, R);
             }
             continue;
@@ -97,7 +99,7 @@ __kernel void color_field(__global const float4* sorted, __global const uint* oc
             vstore8(gx, 0, ox); vstore8(gy, 0, oy); vstore8(gz, 0, oz); vstore8(nb, 0, on);
             for (uint l = 0; l < 8 && first + l < own.y; ++l) {
                 const float3 g = (float3)(ox[l], oy[l], oz[l]);
-                gradient[own.x + first + l] = (float4)(g, (float)on[l]);
+                vstore3(g, own.x + first + l, gradient);
                 flags[own.x + first + l] = particle_flags(g, on[l], R);
             }
         }

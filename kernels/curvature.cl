@@ -16,31 +16,50 @@
                 if (t >= 0) BODY                                                   \
             }
 
-inline float3 outward_normal(float4 gradient) {
-    return length(gradient.xyz) > 0.0f ? -normalize(gradient.xyz) : (float3)(0.0f);
+inline float3 outward_normal(float3 gradient) {
+    return length(gradient) > 0.0f ? -normalize(gradient) : (float3)(0.0f);
 }
 
-// Outward unit normal (xyz) and surface flag (w: 1 or 0) per sorted particle, written over its
-// colour-field gradient (not needed after this), so the curvature loop reads one float4 per
-// neighbour instead of normalising a gradient, and no second array of n float4 is allocated.
-__kernel void particle_normals(__global float4* gradient_to_normal, __global const uchar* flags, uint n) {
+// Outward unit normal per sorted particle (packed xyz), written over its colour-field gradient (not
+// needed after this), so the curvature loop reads a normal instead of normalising a gradient, and no
+// second array of n normals is allocated.
+__kernel void particle_normals(__global float* gradient_to_normal, uint n) {
     uint i = get_global_id(0);
-    if (i < n)
-        gradient_to_normal[i] =
-            (float4)(outward_normal(gradient_to_normal[i]), (flags[i] & FLAG_SURFACE) ? 1.0f : 0.0f);
+    if (i < n) vstore3(outward_normal(vload3(i, gradient_to_normal)), i, gradient_to_normal);
+}
+
+// After gather_candidates: the candidates' normals, in the same order, with w = 1 for surface
+// particles and 0 for the others.
+inline void gather_normals(int3 blo, int3 bhi, __global const float* normals, __global const uchar* flags,
+                           __global const uint2* range, __local float4* dst, __local const uint* bin_first,
+                           __local const uint* bin_slot) {
+    const uint lid = get_local_id(0), lsize = get_local_size(0);
+    const int3 bn = bhi - blo + 1;
+    const int nbins = bn.x * bn.y * bn.z;
+    const uint first = SERIAL_GATHER ? (lid == 0 ? 0 : UINT_MAX) : lid, stride = SERIAL_GATHER ? 1 : lsize;
+    for (int b = 0; b < nbins && first != UINT_MAX; ++b) {
+        if ((int)bin_slot[b] < 0) continue;
+        uint2 rg = range[bin_slot[b]];
+        for (uint k = first; k < rg.y; k += stride) {
+            const uint j = rg.x + k;
+            dst[bin_first[b] + k] = (float4)(vload3(j, normals), (flags[j] & FLAG_SURFACE) ? 1.0f : 0.0f);
+        }
+    }
+    barrier(CLK_LOCAL_MEM_FENCE);
 }
 
 // Paper eq. 1-2 for surface particle i over the 27 bins around it in global memory (bins whose
 // candidates do not fit in local memory).
-inline float curvature_global(uint i, __global const float4* sorted, float inv_cell, __global const ulong* bin_keys,
-                              ulong bin_mask, __global const uint2* range, __global const float4* normals, float R) {
+inline float curvature_global(uint i, __global const float4* sorted, __global const uchar* flags, float inv_cell,
+                              __global const ulong* bin_keys, ulong bin_mask, __global const uint2* range,
+                              __global const float* normals, float R) {
     const float4 xi = sorted[i];
-    const float3 ni = normals[i].xyz;
+    const float3 ni = vload3(i, normals);
     float kap = 0.0f;
     FOR_EACH_NEIGHBOUR_BIN(xi, inv_cell, bin_keys, bin_mask, range, sorted, {
-        if (j != i && normals[j].w != 0.0f) {
+        if (j != i && (flags[j] & FLAG_SURFACE)) {
             float d = length(xi.xyz - pj.xyz);
-            if (d < R) kap += (1.0f - dot(ni, normals[j].xyz)) * (1.0f - d / R);
+            if (d < R) kap += (1.0f - dot(ni, vload3(j, normals))) * (1.0f - d / R);
         }
     })
     return kap;
@@ -76,7 +95,7 @@ inline void add_to_cell(float3 x, float kap, float inv_coarse, __global const ul
 __kernel void particle_curvature(__global const float4* sorted, __global const uchar* flags,
                                  __global const uint* occupied, uint occupied_count, uint per_group, float inv_cell,
                                  __global const ulong* bin_keys, ulong bin_mask, __global const uint2* range,
-                                 __global const float4* normals, float R, uint keep_kappa,
+                                 __global const float* normals, float R, uint keep_kappa,
                                  __local float4* cand, __local uint* bin_first, __local uint* bin_slot,
                                  __local uint* count, __local float4* cand_normal, float inv_coarse,
                                  __global const ulong* cell_keys, ulong cell_mask, volatile __global ulong* kappa_sum,
@@ -99,21 +118,22 @@ __kernel void particle_curvature(__global const float4* sorted, __global const u
         if (n_cand > MAX_CANDIDATES) {
             for (uint k = lid; k < own.y; k += lsize) {
                 const uint i = own.x + k;
-                const float kap = (flags[i] & FLAG_SURFACE)
-                                      ? curvature_global(i, sorted, inv_cell, bin_keys, bin_mask, range, normals, R)
-                                      : 0.0f;
+                const float kap =
+                    (flags[i] & FLAG_SURFACE)
+                        ? curvature_global(i, sorted, flags, inv_cell, bin_keys, bin_mask, range, normals, R)
+                        : 0.0f;
                 CURVATURE_RESULT(i, kap);
             }
             continue;
         }
-        gather_more(bin - 1, bin + 1, normals, range, cand_normal, bin_first, bin_slot);
+        gather_normals(bin - 1, bin + 1, normals, flags, range, cand_normal, bin_first, bin_slot);
         for (uint first = lid * 8; first < own.y; first += lsize * 8) {
             float px[8], py[8], pz[8], nx[8], ny[8], nz[8];
             uint ids[8];
             for (int l = 0; l < 8; ++l) {  // spare lanes repeat the last particle
                 const uint i = own.x + min(first + l, own.y - 1);
                 const float4 x = sorted[i];
-                const float4 n = normals[i];
+                const float3 n = vload3(i, normals);
                 px[l] = x.x; py[l] = x.y; pz[l] = x.z; nx[l] = n.x; ny[l] = n.y; nz[l] = n.z; ids[l] = i;
             }
             const float8 X = vload8(0, px), Y = vload8(0, py), Z = vload8(0, pz);

@@ -9,12 +9,15 @@ inline int3 cell_of(float4 p, float inv_cell) {
     return convert_int3_rtn(p.xyz * inv_cell);
 }
 
-__kernel void bin_insert(__global const float4* pos, uint n, float inv_cell,
+// `pos`: the input positions as packed xyz triples (3 floats a particle: at x512 a float4 array
+// would add 70 MB at binning's peak, the gather).
+__kernel void bin_insert(__global const float* pos, uint n, float inv_cell,
                          volatile __global ulong* keys, ulong mask, __global int* slot_of,
                          volatile __global int* stats) {
     uint i = get_global_id(0);
     if (i >= n) return;
-    slot_of[i] = (int)hash_insert_counted(keys, mask, pack_key(cell_of(pos[i], inv_cell)), stats);
+    const int3 c = convert_int3_rtn(vload3(i, pos) * inv_cell);
+    slot_of[i] = (int)hash_insert_counted(keys, mask, pack_key(c), stats);
 }
 
 __kernel void bin_count(__global const int* slot_of, uint n, volatile __global uint* count) {
@@ -46,10 +49,10 @@ __kernel void bin_sort_buckets(__global const uint2* range, ulong capacity, __gl
 
 // w of each sorted position holds its own sorted index (as bits), so gathered candidate lists
 // still know which particle they are.
-__kernel void bin_gather(__global const uint* order, uint n, __global const float4* pos, __global float4* sorted) {
+__kernel void bin_gather(__global const uint* order, uint n, __global const float* pos, __global float4* sorted) {
     uint i = get_global_id(0);
     if (i >= n) return;
-    sorted[i] = (float4)(pos[order[i]].xyz, as_float(i));
+    sorted[i] = (float4)(vload3(order[i], pos), as_float(i));
 }
 
 // Neighbour loop over the 27 bins around `x`; used by every particle and grid-point stage.
@@ -113,19 +116,4 @@ inline uint gather_candidates(int3 blo, int3 bhi, __global const float4* sorted,
         }
     barrier(CLK_LOCAL_MEM_FENCE);
     return n;
-}
-
-// After gather_candidates: copies a second per-particle array (same bins, same order) into `dst`.
-inline void gather_more(int3 blo, int3 bhi, __global const float4* src, __global const uint2* range,
-                        __local float4* dst, __local const uint* bin_first, __local const uint* bin_slot) {
-    const uint lid = get_local_id(0), lsize = get_local_size(0);
-    const int3 bn = bhi - blo + 1;
-    const int nbins = bn.x * bn.y * bn.z;
-    const uint first = SERIAL_GATHER ? (lid == 0 ? 0 : UINT_MAX) : lid, stride = SERIAL_GATHER ? 1 : lsize;
-    for (int b = 0; b < nbins && first != UINT_MAX; ++b) {
-        if ((int)bin_slot[b] < 0) continue;
-        uint2 rg = range[bin_slot[b]];
-        for (uint k = first; k < rg.y; k += stride) dst[bin_first[b] + k] = src[rg.x + k];
-    }
-    barrier(CLK_LOCAL_MEM_FENCE);
 }

@@ -102,13 +102,11 @@ BinnedParticles bin_particles(OpenCLRuntime& rt, const float* xyz, std::size_t p
     b.cell = cell;
     const cl_uint n = cl_uint(b.count);
     const float inv_cell = 1.0f / cell;
-    DeviceBuffer pos = rt.buffer(n * sizeof(cl_float4), "particle positions");
-    auto* p = static_cast<cl_float4*>(
-        rt.queue().enqueueMapBuffer(pos, CL_TRUE, CL_MAP_WRITE_INVALIDATE_REGION, 0, n * sizeof(cl_float4)));
-    for (std::size_t i = 0; i < particles; ++i) {
-        const glm::vec3 v(glm::dvec3(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]) - origin);
-        p[i] = {{v.x, v.y, v.z, 0.0f}};
-    }
+    DeviceBuffer pos = rt.buffer(n * sizeof(glm::vec3), "particle positions");  // packed xyz
+    auto* p = static_cast<glm::vec3*>(
+        rt.queue().enqueueMapBuffer(pos, CL_TRUE, CL_MAP_WRITE_INVALIDATE_REGION, 0, n * sizeof(glm::vec3)));
+    for (std::size_t i = 0; i < particles; ++i)
+        p[i] = glm::vec3(glm::dvec3(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]) - origin);
     rt.queue().enqueueUnmapMemObject(pos, p);
     if (uploaded) uploaded();
     DeviceBuffer slot_of = rt.buffer(n * sizeof(cl_int), "particle bins");
@@ -153,7 +151,7 @@ BinnedParticles bin_particles(OpenCLRuntime& rt, const float* xyz, std::size_t p
 ParticleClasses classify_particles(OpenCLRuntime& rt, const BinnedParticles& b, float r, float R) {
     ParticleClasses c;
     const cl_uint n = cl_uint(b.count);
-    c.gradient = rt.buffer(n * sizeof(cl_float4), "colour-field gradients");
+    c.gradient = rt.buffer(n * 3 * sizeof(cl_float), "colour-field gradients");
     c.flags = rt.buffer(n * sizeof(cl_uchar), "particle flags");
     const float volume = std::pow(2.0f * r, 3.0f);
     set_args(rt.kernel("color_field"), b.sorted, b.occupied, cl_uint(b.occupied_count), cl_uint(kBinsPerGroup),
@@ -185,7 +183,7 @@ void cell_curvature_levels(OpenCLRuntime& rt, const BinnedParticles& b, Particle
     rt.queue().enqueueFillBuffer(mx, cl_uint{0}, 0, cap * sizeof(cl_uint));
     kappa = rt.buffer(keep_kappa ? n * sizeof(cl_float) : sizeof(cl_float), "particle curvature");
     const cl::Buffer& normals = c.gradient;  // turned into normals in place
-    set_args(rt.kernel("particle_normals"), c.gradient, c.flags, n);
+    set_args(rt.kernel("particle_normals"), c.gradient, n);
     rt.run("particle_normals", n);
     cl::Kernel& k = rt.kernel("particle_curvature");
     set_args(k, b.sorted, c.flags, b.occupied, cl_uint(b.occupied_count), cl_uint(kBinsPerGroup), 1.0f / b.cell,
@@ -194,6 +192,8 @@ void cell_curvature_levels(OpenCLRuntime& rt, const BinnedParticles& b, Particle
     k.setArg(16, cl::Local(rt.max_candidates() * sizeof(cl_float4)));  // normals
     set_args_from(k, 17, inv_coarse, cells.keys, cl_ulong(cells.mask()), sum, cnt, mx, kappa);
     rt.run_groups("particle_curvature", (b.occupied_count + kBinsPerGroup - 1) / kBinsPerGroup, kBinGroup);
+    c.gradient = DeviceBuffer{};  // normals and flags are read: freed before the buffers below
+    c.flags = DeviceBuffer{};
     DeviceBuffer raw = rt.buffer(cap * sizeof(cl_float), "unsmoothed cell curvature");
     set_args(rt.kernel("cell_curvature"), cells.keys, cl_ulong(cells.mask()), sum, cnt, mx, raw);
     rt.run("cell_curvature", cap);
@@ -229,6 +229,8 @@ SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& b, Particle
                               read_particle_kappa, kappa);
         if (read_particle_kappa) out.particle_kappa = read_buffer<float>(rt, kappa, n);
     }
+    c.gradient = DeviceBuffer{};  // uniform modes: not needed after the splash cells
+    c.flags = DeviceBuffer{};
     auto keys = read_buffer<cl_ulong>(rt, cells.keys, cap);
     auto fl = read_buffer<cl_uint>(rt, flags, cap);
     auto lv = forced_level ? std::vector<cl_uchar>() : read_buffer<cl_uchar>(rt, level, cap);

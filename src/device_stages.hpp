@@ -42,10 +42,9 @@ struct BinnedParticles {
 BinnedParticles bin_particles(OpenCLRuntime& rt, const float* xyz, std::size_t n, glm::dvec3 origin, float cell,
                               const std::function<void()>& uploaded = {});
 
-/// Stage 2: colour-field gradient (xyz) and neighbour count (w) per sorted particle; flags bit 0
-/// surface, bit 1 splash.
+/// Stage 2: colour-field gradient per sorted particle; flags bit 0 surface, bit 1 splash, bit 2 thin.
 struct ParticleClasses {
-    DeviceBuffer gradient;  ///< float4; the curvature pass of surface_cells turns it into normals
+    DeviceBuffer gradient;  ///< packed xyz, 3 floats a particle; the curvature pass turns it into normals
     DeviceBuffer flags;     ///< uchar
     std::size_t surface = 0, splash = 0;
 };
@@ -61,7 +60,8 @@ struct SurfaceCells {
 /// `forced_level` 2 or 3 assigns that level to every cell (uniform modes, no curvature pass).
 /// `read_particle_kappa`: also copy the per-particle curvature to the host (tests; the pipeline
 /// needs only the cells). The curvature pass overwrites `classes.gradient` with the outward unit
-/// normals and surface flags (xyz, w) in place: a second float4 per particle was 280 MB at x512.
+/// normals in place (a second array of n normals would be 210 MB at x512); once it has run, the
+/// gradients and flags of `classes` are freed (the counts stay).
 SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& bins, ParticleClasses& classes,
                            float r, float R, float coarse_edge, float threshold, int forced_level,
                            bool read_particle_kappa = false);
