@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <utility>
 
 #include <tbb/blocked_range.h>
@@ -282,25 +283,27 @@ Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame&
     const std::size_t nc = (cells.size() + kCellsPerChunk - 1) / kCellsPerChunk;
     std::vector<ChunkOut> chunks(nc);
     std::vector<std::vector<std::uint32_t>> ids(nc);
-    tbb::enumerable_thread_specific<Scratch> scratch;
+    auto scratch = std::make_unique<tbb::enumerable_thread_specific<Scratch>>();
     Mesh mesh;
-    VertexIndex index(cells.size() * 8);
+    auto index = std::make_unique<VertexIndex>(cells.size() * 8);
     std::size_t next = 0;
     auto source = [&](tbb::flow_control& fc) -> std::size_t {
         if (next == nc) fc.stop();
         return next++;
     };
     auto mesh_chunk = [&](std::size_t ci) {
-        Scratch& s = scratch.local();
+        Scratch& s = scratch->local();
         const std::size_t end = std::min(cells.size(), (ci + 1) * kCellsPerChunk);
         for (std::size_t i = ci * kCellsPerChunk; i < end; ++i) mesher.mesh(cells[i], s, chunks[ci]);
         return ci;
     };
-    auto number = [&](std::size_t ci) { number_chunk(chunks[ci], index, ids[ci], mesh); };
+    auto number = [&](std::size_t ci) { number_chunk(chunks[ci], *index, ids[ci], mesh); };
     tbb::parallel_pipeline(4 * std::size_t(tbb::this_task_arena::max_concurrency()),
                            tbb::make_filter<void, std::size_t>(tbb::filter_mode::serial_in_order, source) &
                                tbb::make_filter<std::size_t, std::size_t>(tbb::filter_mode::parallel, mesh_chunk) &
                                tbb::make_filter<std::size_t, void>(tbb::filter_mode::serial_in_order, number));
+    index.reset();  // freed before phase 3 allocates the mesh's triangles (the run's peak at x64)
+    scratch.reset();
 
     // Phase 3: triangles with global indices, in chunk order.
     std::vector<std::size_t> tri_offset(nc + 1, 0);
@@ -309,10 +312,12 @@ Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame&
     mesh.triangle_kind.resize(tri_offset.back());
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nc, 1), [&](const auto& r) {
         for (std::size_t ci = r.begin(); ci != r.end(); ++ci) {
-            const ChunkOut& c = chunks[ci];
+            ChunkOut& c = chunks[ci];
             std::uint32_t* t = mesh.triangles.data() + tri_offset[ci] * 3;
             for (std::size_t i = 0; i < c.triangles.size(); ++i) t[i] = ids[ci][c.triangles[i]];
             std::copy(c.kinds.begin(), c.kinds.end(), mesh.triangle_kind.begin() + std::ptrdiff_t(tri_offset[ci]));
+            c = ChunkOut{};  // copied: freed while the others are
+            ids[ci] = {};
         }
     });
     return mesh;
