@@ -136,6 +136,7 @@ OpenCLRuntime::OpenCLRuntime(int device) try {
     } catch (const cl::Error& e) {
         throw Error("cannot open OpenCL device '" + info_.name + "': " + e.what() + " " + cl_error_name(e.err()));
     }
+    work_group_ = std::min(work_group_, device_.getInfo<CL_DEVICE_MAX_WORK_GROUP_SIZE>());
     if (const char* env = std::getenv("TRILEVEL_WORK_GROUP"); env && *env) work_group_ = std::strtoul(env, nullptr, 10);
     // Two float4 lists plus the bin tables and the scalar field's claimed-point list (4 KiB).
     const std::uint64_t local = device_.getInfo<CL_DEVICE_LOCAL_MEM_SIZE>();
@@ -217,9 +218,12 @@ void OpenCLRuntime::run(const std::string& name, std::size_t global) {
     maybe_fail("clEnqueueNDRangeKernel");
     if (global == 0) return;
     cl::NDRange local = cl::NullRange;
-    if (work_group_ > 0) {
-        global = (global + work_group_ - 1) / work_group_ * work_group_;
-        local = cl::NDRange(work_group_);
+    std::size_t w = work_group_;
+    if (w > 0) {  // within the kernel's own limit (a GPU may allow less for a kernel than for the device)
+        const std::size_t limit = kernel(name).getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(device_);
+        while (w > limit && w > 1) w /= 2;
+        global = (global + w - 1) / w * w;
+        local = cl::NDRange(w);
     }
     cl::Event ev;
     queue_.enqueueNDRangeKernel(kernel(name), cl::NullRange, cl::NDRange(global), local, nullptr, &ev);
