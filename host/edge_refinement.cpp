@@ -5,7 +5,6 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_sort.h>
 
 #include "cell_index.hpp"
 #include "marching_cubes.hpp"
@@ -19,11 +18,28 @@ struct Scratch {
     std::vector<const float*> values, found;
 };
 
-/// Midpoints of the crossed level-2 edges of one level-2 cell not in `field` yet, tagged with the
-/// cell's index. The cell's level-2 values are looked up once, in one batch (each is an end of up
+/// Whether `cell` is the first of `cells` (key order: z, then y, then x) among the level-2 cells
+/// holding the level-2 edge with midpoint `mid` (fine lattice). Up to four cells hold an edge on
+/// a cell face or edge; each holds its crossing (the same two end values) and misses its midpoint
+/// alike, so the first of them lists it.
+bool first_holder(glm::ivec3 cell, glm::ivec3 mid, int cs, const CellIndex& index) {
+    glm::ivec3 other(0);  // per axis: -1 or +1 where the edge lies on the cell's low or high face
+    for (int a = 0; a < 3; ++a) other[a] = mid[a] == cell[a] * cs ? -1 : mid[a] == (cell[a] + 1) * cs ? 1 : 0;
+    for (int dz = std::min(other.z, 0); dz <= std::max(other.z, 0); ++dz)
+        for (int dy = std::min(other.y, 0); dy <= std::max(other.y, 0); ++dy)
+            for (int dx = std::min(other.x, 0); dx <= std::max(other.x, 0); ++dx) {
+                const bool earlier = dz < 0 || (dz == 0 && (dy < 0 || (dy == 0 && dx < 0)));
+                if (earlier && index.level(cell + glm::ivec3(dx, dy, dz)) == 2) return false;
+            }
+    return true;
+}
+
+/// Midpoints of the crossed level-2 edges of one level-2 cell not in `field` yet, those the cell
+/// lists (first_holder) tagged with its index, in ascending key order. Returns whether the cell
+/// holds any. The cell's level-2 values are looked up once, in one batch (each is an end of up
 /// to six edges).
-void cell_midpoints(const CoarseCell& cell, std::uint32_t index, int cs, const FinePointMap& field, Scratch& s,
-                    std::vector<std::pair<std::uint64_t, std::uint32_t>>& out) {
+bool cell_midpoints(const CoarseCell& cell, std::uint32_t index, int cs, const FinePointMap& field,
+                    const CellIndex& cells, Scratch& s, std::vector<std::pair<std::uint64_t, std::uint32_t>>& out) {
     const int m = cs / 2 + 1;  // level-2 points per axis
     const glm::ivec3 base = cell.coord * cs;
     find_level2_points(field, cell.coord, cs, s.keys, s.values);
@@ -44,17 +60,26 @@ void cell_midpoints(const CoarseCell& cell, std::uint32_t index, int cs, const F
             }
     s.found.resize(s.mids.size());
     find_batch(field, s.mids.data(), s.mids.size(), s.found.data());  // their misses overlap
-    for (std::size_t k = 0; k < s.mids.size(); ++k)
-        if (!s.found[k]) out.emplace_back(s.mids[k], index);
+    bool holds = false;
+    const std::size_t first = out.size();
+    for (std::size_t k = 0; k < s.mids.size(); ++k) {
+        if (s.found[k]) continue;
+        holds = true;
+        if (first_holder(cell.coord, lattice::unpack(s.mids[k]), cs, cells)) out.emplace_back(s.mids[k], index);
+    }
+    std::sort(out.begin() + std::ptrdiff_t(first), out.end());
+    return holds;
 }
 
 }  // namespace
 
 Level2Midpoints level2_crossing_midpoints(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
                                           const FinePointMap& field) {
-    using Tagged = std::pair<std::uint64_t, std::uint32_t>;  // key, index of a cell holding it
+    using Tagged = std::pair<std::uint64_t, std::uint32_t>;  // key, index of the cell listing it
     tbb::enumerable_thread_specific<std::vector<Tagged>> found;
     tbb::enumerable_thread_specific<Scratch> scratch;
+    const CellIndex index(cells);
+    std::vector<std::uint8_t> holds(cells.size(), 0);
     // Visited in Morton order, so that neighbouring cells, which share most level-2 points, run
     // close in time; the lists below do not depend on the order of the visit.
     std::vector<std::uint32_t> visit;
@@ -65,25 +90,13 @@ Level2Midpoints level2_crossing_midpoints(const std::vector<CoarseCell>& cells, 
         auto& out = found.local();
         auto& s = scratch.local();
         for (std::size_t k = range.begin(); k != range.end(); ++k)
-            cell_midpoints(cells[visit[k]], visit[k], frame.coarse_steps, field, s, out);
+            holds[visit[k]] = cell_midpoints(cells[visit[k]], visit[k], frame.coarse_steps, field, index, s, out);
     });
-    std::size_t total = 0;
-    for (auto& v : found) total += v.size();
-    std::vector<Tagged> all;  // ~1.3 M at x512: reserved once, each thread's list freed as it is copied
-    all.reserve(total);
-    std::vector<std::uint8_t> holds(cells.size(), 0);
-    for (auto& v : found) {
-        for (const Tagged& t : v) holds[t.second] = 1;
-        all.insert(all.end(), v.begin(), v.end());
-        std::vector<Tagged>().swap(v);
-    }
-    tbb::parallel_sort(all.begin(), all.end());  // by key, then cell: the first cell of each key keeps it
-    all.erase(std::unique(all.begin(), all.end(), [](const Tagged& a, const Tagged& b) { return a.first == b.first; }),
-              all.end());
-    // Grouped by cell in cells order by a counting pass; `all` is in key order, so each cell's keys
-    // stay in key order.
+    // Grouped by cell in cells order by a counting pass; each cell's keys are contiguous in one
+    // thread's list, in ascending order, and stay so.
     std::vector<std::uint32_t> next(cells.size(), 0);
-    for (const Tagged& t : all) ++next[t.second];
+    for (const auto& v : found)
+        for (const Tagged& t : v) ++next[t.second];
     Level2Midpoints out;
     std::uint32_t at = 0;
     for (std::size_t i = 0; i < cells.size(); ++i) {
@@ -95,8 +108,11 @@ Level2Midpoints level2_crossing_midpoints(const std::vector<CoarseCell>& cells, 
         at += count;
     }
     out.first.push_back(at);
-    out.keys.resize(all.size());
-    for (const Tagged& t : all) out.keys[next[t.second]++] = t.first;
+    out.keys.resize(at);
+    for (auto& v : found) {
+        for (const Tagged& t : v) out.keys[next[t.second]++] = t.first;
+        std::vector<Tagged>().swap(v);
+    }
     return out;
 }
 

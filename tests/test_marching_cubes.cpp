@@ -265,8 +265,10 @@ TEST_CASE("level-2 sphere with true values at crossed edge midpoints (edge refin
     CHECK(worst_refined < 0.05);
 }
 
-TEST_CASE("each crossed level-2 midpoint is listed once, under the first cell that holds its edge", "[mesh]") {
-    SphereSetup s = sphere_setup(12.0, 4, 2);
+// level2_crossing_midpoints against its definition: each missing crossed midpoint listed once,
+// under the first cell of the input that holds its edge, and none missing.
+// Returns the number of holders with an empty list.
+static std::size_t check_midpoint_lists(const SphereSetup& s) {
     const Level2Midpoints mids = level2_crossing_midpoints(s.cells, s.frame, s.field);
     REQUIRE(!mids.keys.empty());
     REQUIRE(mids.first.size() == mids.holders.size() + 1);
@@ -290,7 +292,38 @@ TEST_CASE("each crossed level-2 midpoint is listed once, under the first cell th
         ++holders_seen;
     }
     INFO(holders_seen << " holders, " << empty_lists << " with an empty list");
-    CHECK(empty_lists > 0);  // cells that only share others' midpoints stay holders (the claiming fallback)
+    // Complete: every crossed level-2 edge of every cell whose midpoint the field lacks is listed.
+    std::size_t crossed = 0;
+    for (const CoarseCell& c : s.cells)
+        for (int z = 0; z <= cs; z += 2)
+            for (int y = 0; y <= cs; y += 2)
+                for (int x = 0; x <= cs; x += 2)
+                    for (int axis = 0; axis < 3; ++axis) {
+                        glm::ivec3 a = c.coord * cs + glm::ivec3(x, y, z), b = a;
+                        if (a[axis] + 2 > c.coord[axis] * cs + cs) continue;
+                        b[axis] += 2;
+                        const float *va = s.field.find(lattice::pack(a)), *vb = s.field.find(lattice::pack(b));
+                        if (!va || !vb || mc::inside(*va) == mc::inside(*vb)) continue;
+                        glm::ivec3 m = a;
+                        m[axis] += 1;
+                        if (s.field.find(lattice::pack(m))) continue;
+                        ++crossed;
+                        REQUIRE(seen.count(lattice::pack(m)) == 1);
+                    }
+    CHECK(crossed >= seen.size());  // edges on shared faces count once per cell
+    return empty_lists;
+}
+
+TEST_CASE("each crossed level-2 midpoint is listed once, under the first cell that holds its edge", "[mesh]") {
+    // Cells that only share others' midpoints stay holders (the claiming fallback).
+    CHECK(check_midpoint_lists(sphere_setup(12.0, 4, 2)) > 0);
+    // Four cells around the line x = 8, y = 4 (cs = 4) but (1, 0, 1): the first holder of the
+    // z edges on that line is (2, 0, 1), a diagonal neighbour of (1, 1, 1), which comes later.
+    SphereSetup s;
+    s.frame = {glm::vec3(0.0f), 0.5f, 4};
+    s.cells = {{{2, 0, 1}, 2}, {{1, 1, 1}, 2}, {{2, 1, 1}, 2}};
+    s.field = test::make_field(s.cells, s.frame, [](glm::ivec3 p) { return float(p.z) - 5.3f; });
+    check_midpoint_lists(s);
 }
 
 TEST_CASE("triangulation is bit-identical for 1 and 2 threads", "[mesh]") {
