@@ -163,13 +163,12 @@ __kernel void particle_curvature(__global const float4* sorted, __global const u
 
 // Paper eq. 3 per coarse cell. A cell without surface particles takes the largest curvature found
 // in its 26 neighbours (DESIGN §3.2).
-__kernel void cell_curvature(__global const ulong* cell_keys, ulong cell_mask, __global const ulong* kappa_sum,
-                             __global const uint* kappa_count, __global const uint* kappa_max,
-                             __global float* cell_kappa) {
-    ulong s = get_global_id(0);
-    if (s > cell_mask) return;
-    ulong key = cell_keys[s];
-    if (key == EMPTY_KEY) return;
+__kernel void cell_curvature(__global const uint* cells, uint count, __global const ulong* cell_keys, ulong cell_mask,
+                             __global const ulong* kappa_sum, __global const uint* kappa_count,
+                             __global const uint* kappa_max, __global float* cell_kappa) {
+    if (get_global_id(0) >= count) return;
+    const uint s = cells[get_global_id(0)];
+    const ulong key = cell_keys[s];
     if (kappa_count[s] > 0) {
         cell_kappa[s] = ((float)kappa_sum[s] / KAPPA_FIXED) / (float)kappa_count[s];
         return;
@@ -182,13 +181,12 @@ __kernel void cell_curvature(__global const ulong* cell_keys, ulong cell_mask, _
 // Level per coarse cell: 3 if a splash or thin particle is near, or if the cell curvature averaged
 // over the surface cells of its 3x3x3 block reaches the threshold; else 2. The average (beyond the
 // paper) keeps level regions compact: fewer transition faces, fewer crack patches.
-__kernel void cell_levels(__global const ulong* cell_keys, ulong cell_mask, __global const float* cell_kappa,
-                          __global const uint* cell_flags, float threshold, __global uchar* level,
-                          __global float* smoothed) {
-    ulong s = get_global_id(0);
-    if (s > cell_mask) return;
-    ulong key = cell_keys[s];
-    if (key == EMPTY_KEY) return;
+__kernel void cell_levels(__global const uint* cells, uint count, __global const ulong* cell_keys, ulong cell_mask,
+                          __global const float* cell_kappa, __global const uint* cell_flags, float threshold,
+                          __global uchar* level, __global float* smoothed) {
+    if (get_global_id(0) >= count) return;
+    const uint s = cells[get_global_id(0)];
+    const ulong key = cell_keys[s];
     float sum = 0.0f;
     int n = 0;
     FOR_EACH_CELL_IN_BLOCK(unpack_key(key), cell_keys, cell_mask, { sum += cell_kappa[t]; ++n; })
