@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <limits>
 #include <numeric>
+#include <optional>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -79,22 +80,49 @@ void set_candidate_args(OpenCLRuntime& rt, cl::Kernel& k, cl_uint first) {
     k.setArg(first + 3, cl::Local(sizeof(cl_uint)));
 }
 
+/// A buffer mapped for the host, unmapped when this goes: on CPU devices no copy is made.
+template <class T>
+class Mapped {
+public:
+    Mapped(OpenCLRuntime& rt, const cl::Buffer& b, std::size_t count, cl_map_flags flags) : rt_(rt), b_(b) {
+        p_ = static_cast<T*>(rt.queue().enqueueMapBuffer(b, CL_TRUE, flags, 0, count * sizeof(T)));
+    }
+    Mapped(const Mapped&) = delete;
+    Mapped& operator=(const Mapped&) = delete;
+    ~Mapped() {
+        try {
+            rt_.queue().enqueueUnmapMemObject(b_, p_);
+        } catch (const cl::Error&) {  // the frame is failing already; the queue reports it
+        }
+    }
+    T& operator[](std::size_t i) const { return p_[i]; }
+
+private:
+    OpenCLRuntime& rt_;
+    const cl::Buffer& b_;
+    T* p_ = nullptr;
+};
+
 /// The occupied bin slots in Morton order of their coordinates, and each slot's (first, count)
-/// range laid out in that order: bins near in space are then near in memory and in the order
-/// work-groups take them, so a bin's 27-bin gather mostly finds its neighbours' particles in
-/// cache. Sums do not change: a gather orders candidates by bin position, not by range.
-void order_bins(const std::vector<cl_uint>& counts, const std::vector<cl_ulong>& keys, std::vector<cl_uint>& occupied,
-                std::vector<cl_uint2>& range) {
+/// range laid out in that order (unoccupied slots: empty): bins near in space are then near in
+/// memory and in the order work-groups take them, so a bin's 27-bin gather mostly finds its
+/// neighbours' particles in cache. Sums do not change: a gather orders candidates by bin position,
+/// not by range. Returns the sum of squared bin counts (the neighbour-pair load).
+std::uint64_t order_bins(const Mapped<cl_uint>& counts, const Mapped<cl_ulong>& keys, std::size_t cap,
+                         std::vector<cl_uint>& occupied, const Mapped<cl_uint2>& range) {
     occupied.clear();
-    for (std::size_t s = 0; s < counts.size(); ++s)
+    for (std::size_t s = 0; s < cap; ++s)
         if (counts[s]) occupied.push_back(cl_uint(s));
     lattice::sort_by_morton(occupied, [&](cl_uint s) { return lattice::unpack(keys[s]); });
-    range.assign(counts.size(), {{0, 0}});
+    std::fill(&range[0], &range[0] + cap, cl_uint2{{0, 0}});
     cl_uint sum = 0;
+    std::uint64_t pairs = 0;
     for (cl_uint s : occupied) {
         range[s] = {{sum, counts[s]}};
         sum += counts[s];
+        pairs += std::uint64_t(counts[s]) * counts[s];
     }
+    return pairs;
 }
 
 }  // namespace
@@ -127,17 +155,15 @@ BinnedParticles bin_particles(OpenCLRuntime& rt, const float* xyz, std::size_t p
     set_args(rt.kernel("bin_count"), slot_of, n, count);
     rt.run("bin_count", n);
 
-    {  // host copies, freed before the device buffers below are allocated
-        auto counts = read_buffer<cl_uint>(rt, count, cap);
+    b.range = rt.buffer(cap * sizeof(cl_uint2), "bin ranges");
+    {  // counts and keys read, ranges written through maps: no host copies of the tables
         std::vector<cl_uint> occupied;
-        std::vector<cl_uint2> range;
-        order_bins(counts, read_buffer<cl_ulong>(rt, b.bins.keys, cap), occupied, range);
-        for (cl_uint s : occupied) b.pair_load += std::uint64_t(counts[s]) * counts[s];
+        b.pair_load = order_bins(Mapped<cl_uint>(rt, count, cap, CL_MAP_READ),
+                                 Mapped<cl_ulong>(rt, b.bins.keys, cap, CL_MAP_READ), cap, occupied,
+                                 Mapped<cl_uint2>(rt, b.range, cap, CL_MAP_WRITE_INVALIDATE_REGION));
         b.occupied_count = occupied.size();
         b.occupied = rt.buffer(occupied.size() * sizeof(cl_uint), "occupied bins");
         rt.queue().enqueueWriteBuffer(b.occupied, CL_TRUE, 0, occupied.size() * sizeof(cl_uint), occupied.data());
-        b.range = rt.buffer(cap * sizeof(cl_uint2), "bin ranges");
-        rt.queue().enqueueWriteBuffer(b.range, CL_TRUE, 0, cap * sizeof(cl_uint2), range.data());
     }
     rt.queue().enqueueFillBuffer(count, cl_uint{0}, 0, cap * sizeof(cl_uint));
     b.order = rt.buffer(n * sizeof(cl_uint), "particle order");
@@ -230,16 +256,22 @@ SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& b, Particle
              flags);
     rt.run("mark_splash_cells", n);
 
-    // The cells' slots, in key order for the output and in Morton order for the per-cell passes.
-    const auto keys = read_buffer<cl_ulong>(rt, cells.keys, cap);
-    std::vector<cl_uint> slots;
-    for (std::size_t s = 0; s < cap; ++s)
-        if (keys[s] != lattice::kEmptyKey) slots.push_back(cl_uint(s));
+    // The cells' slots in key order (the output's) and in Morton order (the per-cell passes'),
+    // read through maps: no host copy of the table is alive during the curvature pass.
+    std::vector<cl_uint> slots, morton;
+    {
+        const Mapped<cl_ulong> keys(rt, cells.keys, cap, CL_MAP_READ);
+        for (std::size_t s = 0; s < cap; ++s)
+            if (keys[s] != lattice::kEmptyKey) slots.push_back(cl_uint(s));
+        if (forced_level == 0) {
+            morton = slots;
+            lattice::sort_by_morton(morton, [&](cl_uint s) { return lattice::unpack(keys[s]); });
+        }
+        tbb::parallel_sort(slots.begin(), slots.end(), [&](cl_uint a, cl_uint b2) { return keys[a] < keys[b2]; });
+    }
     DeviceBuffer level = rt.buffer(cap, "coarse cell levels"), cell_kappa, kappa;
     SurfaceCells out;
     if (forced_level == 0) {
-        std::vector<cl_uint> morton = slots;
-        lattice::sort_by_morton(morton, [&](cl_uint s) { return lattice::unpack(keys[s]); });
         DeviceBuffer list = rt.buffer(morton.size() * sizeof(cl_uint), "coarse cells in Morton order");
         rt.queue().enqueueWriteBuffer(list, CL_TRUE, 0, morton.size() * sizeof(cl_uint), morton.data());
         cell_kappa = rt.buffer(cap * sizeof(cl_float), "coarse cell curvature");
@@ -249,14 +281,19 @@ SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& b, Particle
     }
     c.gradient = DeviceBuffer{};  // uniform modes: not needed after the splash cells
     c.flags = DeviceBuffer{};
-    auto fl = read_buffer<cl_uint>(rt, flags, cap);
-    auto lv = forced_level ? std::vector<cl_uchar>() : read_buffer<cl_uchar>(rt, level, cap);
-    auto kv = forced_level ? std::vector<float>() : read_buffer<float>(rt, cell_kappa, cap);
-    tbb::parallel_sort(slots.begin(), slots.end(), [&](cl_uint a, cl_uint b2) { return keys[a] < keys[b2]; });
+    const Mapped<cl_ulong> keys(rt, cells.keys, cap, CL_MAP_READ);
+    const Mapped<cl_uint> fl(rt, flags, cap, CL_MAP_READ);
+    std::optional<Mapped<cl_uchar>> lv;
+    std::optional<Mapped<float>> kv;
+    if (forced_level == 0) {
+        lv.emplace(rt, level, cap, CL_MAP_READ);
+        kv.emplace(rt, cell_kappa, cap, CL_MAP_READ);
+    }
+    out.cells.reserve(slots.size());
     for (std::size_t s : slots) {
-        out.cells.push_back({lattice::unpack(keys[s]), std::uint8_t(forced_level ? forced_level : lv[s])});
+        out.cells.push_back({lattice::unpack(keys[s]), std::uint8_t(forced_level ? forced_level : (*lv)[s])});
         out.splash.push_back(std::uint8_t(fl[s] & 1));
-        out.curvature.push_back(forced_level ? 0.0f : kv[s]);
+        out.curvature.push_back(forced_level ? 0.0f : (*kv)[s]);
     }
     rt.finish();
     return out;
