@@ -495,6 +495,7 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
         field = FinePointMap();
         unmap_fine_points(rt, points);
         points = FinePoints{};
+        rt.set_stage("");  // a first frame's pool gives the table back now, not after the checks below
         timer.stage("triangulation");
     }
     count_mesh(mesh, s);
