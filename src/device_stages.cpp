@@ -135,13 +135,13 @@ BinnedParticles bin_particles(OpenCLRuntime& rt, const float* xyz, std::size_t p
     const cl_uint n = cl_uint(b.count);
     const float inv_cell = 1.0f / cell;
     DeviceBuffer pos = rt.buffer(n * sizeof(glm::vec3), "particle positions");  // packed xyz
-    auto* p = static_cast<glm::vec3*>(
-        rt.queue().enqueueMapBuffer(pos, CL_TRUE, CL_MAP_WRITE_INVALIDATE_REGION, 0, n * sizeof(glm::vec3)));
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, particles, 1 << 16), [&](const auto& r) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i)
-            p[i] = glm::vec3(glm::dvec3(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]) - origin);
-    });
-    rt.queue().enqueueUnmapMemObject(pos, p);
+    {
+        const Mapped<glm::vec3> p(rt, pos, n, CL_MAP_WRITE_INVALIDATE_REGION);
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, particles, 1 << 16), [&](const auto& r) {
+            for (std::size_t i = r.begin(); i != r.end(); ++i)
+                p[i] = glm::vec3(glm::dvec3(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]) - origin);
+        });
+    }
     if (uploaded) uploaded();
     DeviceBuffer slot_of = rt.buffer(n * sizeof(cl_int), "particle bins");
 
