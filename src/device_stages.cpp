@@ -462,6 +462,12 @@ DeviceBuffer insert_keys(OpenCLRuntime& rt, FinePoints& p, const std::vector<std
 
 }  // namespace
 
+void reserve_fine_points(OpenCLRuntime& rt, FinePoints& p, const std::vector<CoarseCell>& cells,
+                         const LatticeFrame& frame, std::size_t extra) {
+    const std::size_t want = (p.inserted + extra + estimate_points(cells, frame.coarse_steps)) * 2;
+    if (p.hash.capacity < want) grow_fine_points(rt, p, want);
+}
+
 void insert_points(OpenCLRuntime& rt, FinePoints& p, const std::vector<std::uint64_t>& keys) {
     if (!keys.empty()) insert_keys(rt, p, keys);
 }

@@ -213,7 +213,11 @@ FinePointMap close_band(OpenCLRuntime& rt, FinePoints& points, std::vector<Coars
         auto t0 = Clock::now();
         rt.set_stage("scalar_field");
         const bool check = first && level2_tolerance > 0.0f;  // the cube centres join the first pass
-        if (check) insert_points(rt, points, level2_check_points(cells, frame));
+        if (check) {
+            const std::vector<std::uint64_t> centres = level2_check_points(cells, frame);
+            reserve_fine_points(rt, points, fresh, frame, centres.size());
+            insert_points(rt, points, centres);
+        }
         refine_and_evaluate(rt, points, fresh, frame, bins, r, R,
                             check ? ClaimPoints::LevelAndCubeCentres : ClaimPoints::Level);
         FinePointMap field = map_fine_points(rt, points);
