@@ -33,6 +33,14 @@ void set_args(cl::Kernel& k, const Args&... args) {
     set_args_from(k, 0, args...);
 }
 
+/// A device buffer (role `what`) holding a copy of `data`: the counterpart of read_buffer.
+template <class T>
+DeviceBuffer upload(OpenCLRuntime& rt, const std::vector<T>& data, const char* what) {
+    DeviceBuffer buf = rt.buffer(data.size() * sizeof(T), what);
+    rt.queue().enqueueWriteBuffer(buf, CL_TRUE, 0, data.size() * sizeof(T), data.data());
+    return buf;
+}
+
 DeviceHash make_hash(OpenCLRuntime& rt, std::size_t capacity, const char* what,
                      cl_mem_flags flags = CL_MEM_READ_WRITE) {
     DeviceHash h;
@@ -162,8 +170,7 @@ BinnedParticles bin_particles(OpenCLRuntime& rt, const float* xyz, std::size_t p
                                  Mapped<cl_ulong>(rt, b.bins.keys, cap, CL_MAP_READ), cap, occupied,
                                  Mapped<cl_uint2>(rt, b.range, cap, CL_MAP_WRITE_INVALIDATE_REGION));
         b.occupied_count = occupied.size();
-        b.occupied = rt.buffer(occupied.size() * sizeof(cl_uint), "occupied bins");
-        rt.queue().enqueueWriteBuffer(b.occupied, CL_TRUE, 0, occupied.size() * sizeof(cl_uint), occupied.data());
+        b.occupied = upload(rt, occupied, "occupied bins");
     }
     rt.queue().enqueueFillBuffer(count, cl_uint{0}, 0, cap * sizeof(cl_uint));
     b.order = rt.buffer(n * sizeof(cl_uint), "particle order");
@@ -272,8 +279,7 @@ SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& b, Particle
     DeviceBuffer level = rt.buffer(cap, "coarse cell levels"), cell_kappa, kappa;
     SurfaceCells out;
     if (forced_level == 0) {
-        DeviceBuffer list = rt.buffer(morton.size() * sizeof(cl_uint), "coarse cells in Morton order");
-        rt.queue().enqueueWriteBuffer(list, CL_TRUE, 0, morton.size() * sizeof(cl_uint), morton.data());
+        const DeviceBuffer list = upload(rt, morton, "coarse cells in Morton order");
         cell_kappa = rt.buffer(cap * sizeof(cl_float), "coarse cell curvature");
         cell_curvature_levels(rt, b, c, cells, list, cl_uint(morton.size()), flags, R, inv_coarse, threshold, level,
                               cell_kappa, read_particle_kappa, kappa);
@@ -346,9 +352,7 @@ DeviceBuffer cell_buffer(OpenCLRuntime& rt, const std::vector<CoarseCell>& cells
     std::vector<cl_int4> data;
     for (const auto& c : cells) data.push_back({{c.coord.x, c.coord.y, c.coord.z, c.level}});
     if (in_morton_order) lattice::sort_by_morton(data, [](const cl_int4& c) { return glm::ivec3(c.s[0], c.s[1], c.s[2]); });
-    DeviceBuffer buf = rt.buffer(data.size() * sizeof(cl_int4), "cell list");
-    rt.queue().enqueueWriteBuffer(buf, CL_TRUE, 0, data.size() * sizeof(cl_int4), data.data());
-    return buf;
+    return upload(rt, data, "cell list");
 }
 
 /// Stage 6 over the pending points of `cell_count` cells, one work-group per cell with candidates
@@ -445,9 +449,8 @@ namespace {
 /// insert_points, returning the slot (cl_long) of each key in the final table.
 DeviceBuffer insert_keys(OpenCLRuntime& rt, FinePoints& p, const std::vector<std::uint64_t>& keys) {
     const cl_uint n = cl_uint(keys.size());
-    DeviceBuffer in = rt.buffer(n * sizeof(cl_ulong), "extra fine points");
+    const DeviceBuffer in = upload(rt, keys, "extra fine points");
     DeviceBuffer slots = rt.buffer(n * sizeof(cl_long), "extra fine point slots");
-    rt.queue().enqueueWriteBuffer(in, CL_TRUE, 0, n * sizeof(cl_ulong), keys.data());
     if (p.hash.capacity < (p.inserted + n) * 2) grow_fine_points(rt, p, (p.inserted + n) * 2);
     for (;;) {  // after growth every key goes in again: the slots are those of the final table
         set_args(rt.kernel("hash_insert_keys"), in, n, p.hash.keys, cl_ulong(p.hash.mask()), slots, p.hash.stats);
@@ -477,8 +480,7 @@ void insert_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<std
                          const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
     if (keys.empty()) return;
     const DeviceBuffer slots = insert_keys(rt, p, keys);
-    DeviceBuffer lists = rt.buffer(first.size() * sizeof(cl_uint), "listed point ranges");
-    rt.queue().enqueueWriteBuffer(lists, CL_TRUE, 0, first.size() * sizeof(cl_uint), first.data());
+    const DeviceBuffer lists = upload(rt, first, "listed point ranges");
     const DeviceBuffer cell_buf = cell_buffer(rt, holders);
     Listed listed{lists, slots};
     evaluate_cells(rt, p, cell_buf, holders.size(), ClaimPoints::Listed, frame, b, r, R, &listed);
