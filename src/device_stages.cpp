@@ -406,8 +406,7 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<Coa
     const std::size_t work = cells.size() * side * side * side;
     if (work > std::numeric_limits<cl_uint>::max()) throw Error("too many fine points in one refinement pass");
 
-    const std::size_t want = (p.inserted + estimate_points(cells, frame.coarse_steps)) * 2;
-    if (p.hash.capacity < want) grow_fine_points(rt, p, want);
+    reserve_fine_points(rt, p, cells, frame, 0);
     if (claim == ClaimPoints::Level) {  // one pass: each cell inserts its points and evaluates those it created
         if (evaluate_cells(rt, p, cell_buf, cells.size(), ClaimPoints::Inserted, frame, b, r, R)) {
             if (p.inserted * 2 > p.hash.capacity) grow_fine_points(rt, p, next_pow2(p.inserted * 2 + 1));
