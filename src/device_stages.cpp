@@ -263,22 +263,17 @@ SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& b, Particle
              flags);
     rt.run("mark_splash_cells", n);
 
-    // The cells' slots in key order (the output's) and in Morton order (the per-cell passes'),
-    // read through maps: no host copy of the table is alive during the curvature pass.
-    std::vector<cl_uint> slots, morton;
-    {
-        const Mapped<cl_ulong> keys(rt, cells.keys, cap, CL_MAP_READ);
-        for (std::size_t s = 0; s < cap; ++s)
-            if (keys[s] != lattice::kEmptyKey) slots.push_back(cl_uint(s));
-        if (forced_level == 0) {
-            morton = slots;
-            lattice::sort_by_morton(morton, [&](cl_uint s) { return lattice::unpack(keys[s]); });
-        }
-        tbb::parallel_sort(slots.begin(), slots.end(), [&](cl_uint a, cl_uint b2) { return keys[a] < keys[b2]; });
-    }
+    // The cells' slots in key order (the output's) and in Morton order (the per-cell passes'). The
+    // keys are read through a map (no host copy on CPU devices); the kernels below only read them.
+    const Mapped<cl_ulong> keys(rt, cells.keys, cap, CL_MAP_READ);
+    std::vector<cl_uint> slots;
+    for (std::size_t s = 0; s < cap; ++s)
+        if (keys[s] != lattice::kEmptyKey) slots.push_back(cl_uint(s));
     DeviceBuffer level = rt.buffer(cap, "coarse cell levels"), cell_kappa, kappa;
     SurfaceCells out;
     if (forced_level == 0) {
+        std::vector<cl_uint> morton = slots;
+        lattice::sort_by_morton(morton, [&](cl_uint s) { return lattice::unpack(keys[s]); });
         const DeviceBuffer list = upload(rt, morton, "coarse cells in Morton order");
         cell_kappa = rt.buffer(cap * sizeof(cl_float), "coarse cell curvature");
         cell_curvature_levels(rt, b, c, cells, list, cl_uint(morton.size()), flags, R, inv_coarse, threshold, level,
@@ -287,7 +282,7 @@ SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& b, Particle
     }
     c.gradient = DeviceBuffer{};  // uniform modes: not needed after the splash cells
     c.flags = DeviceBuffer{};
-    const Mapped<cl_ulong> keys(rt, cells.keys, cap, CL_MAP_READ);
+    tbb::parallel_sort(slots.begin(), slots.end(), [&](cl_uint a, cl_uint b2) { return keys[a] < keys[b2]; });
     const Mapped<cl_uint> fl(rt, flags, cap, CL_MAP_READ);
     std::optional<Mapped<cl_uchar>> lv;
     std::optional<Mapped<float>> kv;
