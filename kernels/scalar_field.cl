@@ -42,7 +42,7 @@ inline float8 triple_product8(float8 ax, float8 ay, float8 az, float8 bx, float8
 // largest_real_eigenvalue for eight matrices at once, one per vector lane (rows a, b, c by
 // component), with the scalar function's expressions. Both closed forms are evaluated and each
 // lane selects its own: vector acos, cos and cbrt cost far less than eight scalar calls. They round
-// differently from the scalar forms now and then (x64: 3 of 518,332 vertices moved, by <= 1e-5 r).
+// differently from the scalar forms now and then (docs/design.md, "Eigenvalues in vector form").
 inline float8 largest_real_eigenvalue8(float8 ax, float8 ay, float8 az, float8 bx, float8 by, float8 bz, float8 cx,
                                        float8 cy, float8 cz) {
     const float8 t = ax + by + cz;
@@ -80,12 +80,18 @@ inline float solenthaler_f(float ev) {
     return g * g * g - 3.0f * g * g + 3.0f * g;
 }
 
-inline float solenthaler_phi(float4 x, float K, float3 S, float3 G, float3 A0, float3 A1, float3 A2, float r, float R) {
+// phi from the neighbour sums: |ybar| - r f(EVmax), ybar = x-bar relative to the point; +R without
+// neighbours (K = 0).
+inline float solenthaler_value(float K, float3 ybar, float ev, float r, float R) {
+    return K <= 0.0f ? R : length(ybar) - r * solenthaler_f(ev);
+}
+
+inline float solenthaler_phi(float K, float3 S, float3 G, float3 A0, float3 A1, float3 A2, float r, float R) {
     if (K <= 0.0f) return R;
     float3 ybar = S / K;
     float inv_K = 1.0f / K;
     float ev = largest_real_eigenvalue((A0 - ybar.x * G) * inv_K, (A1 - ybar.y * G) * inv_K, (A2 - ybar.z * G) * inv_K);
-    return length(ybar) - r * solenthaler_f(ev);
+    return solenthaler_value(K, ybar, ev, r, R);
 }
 
 __kernel void scalar_field(__global const uint* pending, uint count, __global const ulong* keys,
@@ -115,7 +121,7 @@ __kernel void scalar_field(__global const uint* pending, uint count, __global co
             A2 += y.z * gk;
         }
     })
-    values[slot] = solenthaler_phi(x, K, S, G, A0, A1, A2, r, R);
+    values[slot] = solenthaler_phi(K, S, G, A0, A1, A2, r, R);
 }
 
 // Candidate particles of one coarse cell gathered into local memory (paper Fig. 3: the particles
@@ -264,7 +270,7 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
             Ayx += yy * gx; Ayy += yy * gy; Ayz += yy * gz;
             Azx += yz * gx; Azy += yz * gy; Azz += yz * gz;
         }
-        // solenthaler_phi on all lanes at once, up to the length of ybar and the weight f(ev)
+        // solenthaler_phi on all lanes at once, up to solenthaler_value
         const float8 bx = Sx / K, by = Sy / K, bz = Sz / K, inv_K = 1.0f / K;  // ybar = S / K
         const float8 ev = largest_real_eigenvalue8(
             (Axx - bx * Gx) * inv_K, (Axy - bx * Gy) * inv_K, (Axz - bx * Gz) * inv_K, (Ayx - by * Gx) * inv_K,
@@ -273,8 +279,7 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
         float k_[LANES], ybx[LANES], yby[LANES], ybz[LANES], ev_[LANES];
         vstore8(K, 0, k_); vstore8(bx, 0, ybx); vstore8(by, 0, yby); vstore8(bz, 0, ybz); vstore8(ev, 0, ev_);
         for (int l = 0; l < LANES && first + l < n_claimed; ++l) {
-            const float phi =
-                k_[l] <= 0.0f ? R : length((float3)(ybx[l], yby[l], ybz[l])) - r * solenthaler_f(ev_[l]);
+            const float phi = solenthaler_value(k_[l], (float3)(ybx[l], yby[l], ybz[l]), ev_[l], r, R);
             value_bits[claimed[first + l]] = as_uint(phi);
         }
     }
