@@ -52,14 +52,14 @@ void find_batch(Map& map, const std::uint64_t* keys, std::size_t n, Value** out)
         return;
     }
     const std::uint64_t* table = map.keys().data();
-    const std::uint64_t mask = map.capacity() - 1;
+    const std::uint64_t capacity = map.capacity();
     for (std::size_t i = 0; i < n; ++i) {
-        __builtin_prefetch(table + (lattice::hash(keys[i]) & mask));
-        __builtin_prefetch(map.values().data() + (lattice::hash(keys[i]) & mask));
+        __builtin_prefetch(table + lattice::home_slot(keys[i], capacity));
+        __builtin_prefetch(map.values().data() + lattice::home_slot(keys[i], capacity));
     }
     for (std::size_t i = 0; i < n; ++i) {
-        std::uint64_t s = lattice::hash(keys[i]) & mask;
-        while (table[s] != keys[i] && table[s] != lattice::kEmptyKey) s = (s + 1) & mask;
+        std::uint64_t s = lattice::home_slot(keys[i], capacity);
+        while (table[s] != keys[i] && table[s] != lattice::kEmptyKey) s = lattice::next_slot(s, capacity);
         out[i] = table[s] == keys[i] ? &map.values()[s] : nullptr;
     }
 }

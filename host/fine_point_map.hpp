@@ -14,15 +14,14 @@ namespace trilevel {
 class FinePointMap {
 public:
     FinePointMap() = default;
-    /// Takes arrays read back from the device; `keys.size()` must be a power of two.
+    /// Takes arrays read back from the device; `keys.size()` must be a multiple of 8.
     FinePointMap(std::vector<std::uint64_t> keys, std::vector<float> values)
         : own_keys_(std::move(keys)), own_values_(std::move(values)) {
         bind_own();
     }
-    /// An empty table with room for `capacity` keys (rounded up to a power of two).
+    /// An empty table with room for `capacity` keys (lattice::table_capacity).
     explicit FinePointMap(std::size_t capacity) {
-        std::size_t c = 16;
-        while (c < capacity) c *= 2;
+        const std::size_t c = lattice::table_capacity(capacity);
         own_keys_.assign(c, lattice::kEmptyKey);
         own_values_.assign(c, 0.0f);
         bind_own();
@@ -48,7 +47,7 @@ public:
     }
 
     const float* find(std::uint64_t key) const {
-        for (std::uint64_t s = lattice::hash(key) & mask_;; s = (s + 1) & mask_) {
+        for (std::uint64_t s = lattice::home_slot(key, capacity_);; s = lattice::next_slot(s, capacity_)) {
             if (keys_[s] == key) return &values_[s];
             if (keys_[s] == lattice::kEmptyKey) return nullptr;
         }
@@ -59,8 +58,8 @@ public:
 
     /// Inserts (or overwrites) a value; the caller keeps the load factor <= 0.5.
     float& insert(std::uint64_t key, float value) {
-        std::uint64_t s = lattice::hash(key) & mask_;
-        while (keys_[s] != key && keys_[s] != lattice::kEmptyKey) s = (s + 1) & mask_;
+        std::uint64_t s = lattice::home_slot(key, capacity_);
+        while (keys_[s] != key && keys_[s] != lattice::kEmptyKey) s = lattice::next_slot(s, capacity_);
         keys_[s] = key;
         values_[s] = value;
         return values_[s];
@@ -77,14 +76,12 @@ private:
     std::uint64_t* keys_ = nullptr;
     float* values_ = nullptr;
     std::size_t capacity_ = 0;
-    std::uint64_t mask_ = 0;
     bool owning_ = true;
 
     void bind(std::uint64_t* k, float* v, std::size_t capacity, bool owning) {
         keys_ = k;
         values_ = v;
         capacity_ = capacity;
-        mask_ = capacity ? capacity - 1 : 0;
         owning_ = owning;
     }
     void bind_own() { bind(own_keys_.data(), own_values_.data(), own_keys_.size(), true); }

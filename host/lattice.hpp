@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstdint>
+#include <stdexcept>
 #include <utility>
 #include <vector>
 
@@ -35,7 +36,7 @@ inline bool in_range(glm::ivec3 p) {
     return p.x >= 0 && p.y >= 0 && p.z >= 0 && p.x <= kMaxCoord && p.y <= kMaxCoord && p.z <= kMaxCoord;
 }
 
-/// Home slot of a key before the mask; identical to trilevel_hash() in hash_table.cl. The
+/// Hash of a key; identical to trilevel_hash() in hash_table.cl (home_slot() below maps it into a table). The
 /// members of a 2x2x2 block share one run of 8 slots (one cache line of keys); points with all
 /// coordinates even form such blocks on the level-2 lattice. Lookups of neighbouring points then
 /// hit a few lines of a table far larger than the caches instead of one random line each.
@@ -50,6 +51,26 @@ inline std::uint64_t hash(std::uint64_t k) {
     k *= 0x94d049bb133111ebull;
     k ^= k >> 31;
     return (k << 3) | in_block;
+}
+
+/// Home slot of a key in a table of `capacity` slots (a multiple of 8, below 2^35); identical to
+/// home_slot() in hash_table.cl, which says why. Power-of-two tables take the hash's low bits,
+/// others the block's run of 8 by multiply-shift ((top 32 bits of the hash * runs) >> 32), so a
+/// table needs no power-of-two size; the key's place in its block fills the low 3 bits.
+inline std::uint64_t home_slot(std::uint64_t key, std::uint64_t capacity) {
+    const std::uint64_t h = hash(key);
+    if ((capacity & (capacity - 1)) == 0) return h & (capacity - 1);
+    return ((((h >> 32) * (capacity >> 3)) >> 32) << 3) | (h & 7);
+}
+
+/// The slot after `s` in linear probing, wrapping at the end of the table.
+inline std::uint64_t next_slot(std::uint64_t s, std::uint64_t capacity) { return s + 1 == capacity ? 0 : s + 1; }
+
+/// Capacity of a device or map table with room for `n` slots: a multiple of 8, at least 16.
+/// home_slot() takes tables below 2^35 slots (384 GiB of keys and values).
+inline std::size_t table_capacity(std::size_t n) {
+    if (n >= (std::size_t{1} << 35)) throw std::length_error("hash table of over 2^35 slots");
+    return n < 16 ? 16 : (n + 7) / 8 * 8;
 }
 
 /// Morton (z-order) code of non-negative coordinates below 2^21: cells or bins that are near in

@@ -79,7 +79,7 @@ bool CellMesher::gather(const CoarseCell& cell, int n, Scratch& s) const {
     const std::size_t count = std::size_t(np) * np * np;
     const std::uint64_t* keys = field_.keys().data();
     const float* values = field_.values().data();
-    const std::uint64_t mask = field_.capacity() - 1;
+    const std::uint64_t capacity = field_.capacity();
     s.values.resize(count);
     s.home.resize(count);
     std::size_t i = 0, inside = 0;
@@ -87,7 +87,7 @@ bool CellMesher::gather(const CoarseCell& cell, int n, Scratch& s) const {
         for (int y = 0; y < np; ++y)
             for (int x = 0; x < np; ++x, ++i) {
                 const std::uint64_t key = lattice::pack(base + st * glm::ivec3(x, y, z));
-                s.home[i] = {key, lattice::hash(key) & mask};
+                s.home[i] = {key, lattice::home_slot(key, capacity)};
                 __builtin_prefetch(keys + s.home[i].second);
                 __builtin_prefetch(values + s.home[i].second);
             }
@@ -97,7 +97,7 @@ bool CellMesher::gather(const CoarseCell& cell, int n, Scratch& s) const {
         while (keys[slot] != key) {
             if (keys[slot] == lattice::kEmptyKey)
                 throw Error("triangulation: a fine point of a surface cell is missing from the map");
-            slot = (slot + 1) & mask;
+            slot = lattice::next_slot(slot, capacity);
         }
         s.values[i] = values[slot];
         inside += mc::inside(values[slot]);

@@ -15,13 +15,13 @@
 // Colour-field gradient and neighbour count of particle i over the 27 bins around it in global
 // memory: for bins whose candidates do not fit in local memory.
 inline void color_field_global(uint i, __global const float4* sorted, float inv_cell, __global const ulong* bin_keys,
-                               ulong bin_mask, __global const uint2* range, float R2, float grad_norm,
+                               ulong bin_capacity, __global const uint2* range, float R2, float grad_norm,
                                float3* g_out, int* n_out) {
     const float4 xi = sorted[i];
     const float same2 = R2 * (SAME_SPOT * SAME_SPOT);
     float3 g = (float3)(0.0f);
     int neighbours = 0;
-    FOR_EACH_NEIGHBOUR_BIN(xi, inv_cell, bin_keys, bin_mask, range, sorted, {
+    FOR_EACH_NEIGHBOUR_BIN(xi, inv_cell, bin_keys, bin_capacity, range, sorted, {
         float3 d = xi.xyz - pj.xyz;
         float d2 = dot(d, d);
         if (d2 < R2 && j != i) {
@@ -49,7 +49,7 @@ inline uchar particle_flags(float3 g, int neighbours, float R) {
 // not depend on its lane. Bins whose candidates do not fit use color_field_global.
 __kernel void color_field(__global const float4* sorted, __global const uint* occupied, uint occupied_count,
                           uint per_group, float inv_cell,
-                          __global const ulong* bin_keys, ulong bin_mask, __global const uint2* range, float R,
+                          __global const ulong* bin_keys, ulong bin_capacity, __global const uint2* range, float R,
                           float volume, __global float* gradient, __global uchar* flags, __local float4* cand,
                           __local uint* bin_first, __local uint* bin_slot, __local uint* count) {
     const float R2 = R * R, same2 = R2 * (SAME_SPOT * SAME_SPOT);
@@ -60,13 +60,13 @@ __kernel void color_field(__global const float4* sorted, __global const uint* oc
         barrier(CLK_LOCAL_MEM_FENCE);  // the previous bin is done with the candidates
         const uint2 own = range[occupied[ob]];
         const int3 bin = cell_of(sorted[own.x], inv_cell);
-        const uint n_cand = gather_candidates(bin - 1, bin + 1, sorted, bin_keys, bin_mask, range, cand, bin_first,
+        const uint n_cand = gather_candidates(bin - 1, bin + 1, sorted, bin_keys, bin_capacity, range, cand, bin_first,
                                               bin_slot, count);
         if (n_cand > MAX_CANDIDATES) {
             for (uint k = lid; k < own.y; k += lsize) {
                 float3 g;
                 int nb;
-                color_field_global(own.x + k, sorted, inv_cell, bin_keys, bin_mask, range, R2, grad_norm, &g, &nb);
+                color_field_global(own.x + k, sorted, inv_cell, bin_keys, bin_capacity, range, R2, grad_norm, &g, &nb);
                 vstore3(g, own.x + k, gradient);
                 flags[own.x + k] = particle_flags(g, nb, R);
             }

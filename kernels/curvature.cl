@@ -6,13 +6,13 @@
 
 // Runs BODY with `long t` = the slot of every coarse cell of the 3x3x3 block around `c` (itself
 // included) that is in the table, in z, y, x order.
-#define FOR_EACH_CELL_IN_BLOCK(c, cell_keys, cell_mask, BODY)                      \
+#define FOR_EACH_CELL_IN_BLOCK(c, cell_keys, cell_capacity, BODY)                      \
     for (int dz = -1; dz <= 1; ++dz)                                               \
         for (int dy = -1; dy <= 1; ++dy)                                           \
             for (int dx = -1; dx <= 1; ++dx) {                                     \
                 int3 q = (c) + (int3)(dx, dy, dz);                                 \
                 if (!key_in_range(q)) continue;                                    \
-                long t = hash_find((cell_keys), (cell_mask), pack_key(q));         \
+                long t = hash_find((cell_keys), (cell_capacity), pack_key(q));         \
                 if (t >= 0) BODY                                                   \
             }
 
@@ -51,12 +51,12 @@ inline void gather_normals(int3 blo, int3 bhi, __global const float* normals, __
 // Paper eq. 1-2 for surface particle i over the 27 bins around it in global memory (bins whose
 // candidates do not fit in local memory).
 inline float curvature_global(uint i, __global const float4* sorted, __global const uchar* flags, float inv_cell,
-                              __global const ulong* bin_keys, ulong bin_mask, __global const uint2* range,
+                              __global const ulong* bin_keys, ulong bin_capacity, __global const uint2* range,
                               __global const float* normals, float R) {
     const float4 xi = sorted[i];
     const float3 ni = vload3(i, normals);
     float kap = 0.0f;
-    FOR_EACH_NEIGHBOUR_BIN(xi, inv_cell, bin_keys, bin_mask, range, sorted, {
+    FOR_EACH_NEIGHBOUR_BIN(xi, inv_cell, bin_keys, bin_capacity, range, sorted, {
         if (j != i && (flags[j] & FLAG_SURFACE)) {
             float d = length(xi.xyz - pj.xyz);
             if (d < R) kap += (1.0f - dot(ni, vload3(j, normals))) * (1.0f - d / R);
@@ -68,10 +68,10 @@ inline float curvature_global(uint i, __global const float4* sorted, __global co
 // Paper eq. 3: adds surface particle i's kappa to the sum and count of the coarse cell it lies in,
 // and to the cell's largest kappa (as float bits: non-negative floats order like their bits).
 // Fixed-point sums do not depend on the order of the adds (DESIGN §6).
-inline void add_to_cell(float3 x, float kap, float inv_coarse, __global const ulong* cell_keys, ulong cell_mask,
+inline void add_to_cell(float3 x, float kap, float inv_coarse, __global const ulong* cell_keys, ulong cell_capacity,
                         volatile __global ulong* kappa_sum, volatile __global uint* kappa_count,
                         volatile __global uint* kappa_max) {
-    long s = hash_find(cell_keys, cell_mask, pack_key(coarse_of(x, inv_coarse)));
+    long s = hash_find(cell_keys, cell_capacity, pack_key(coarse_of(x, inv_coarse)));
     if (s < 0) return;
     atom_add(&kappa_sum[s], (ulong)(kap * KAPPA_FIXED + 0.5f));
     atomic_inc(&kappa_count[s]);
@@ -83,7 +83,7 @@ inline void add_to_cell(float3 x, float kap, float inv_coarse, __global const ul
 #define CURVATURE_RESULT(i, kap)                                                                          \
     {                                                                                                     \
         if (flags[i] & FLAG_SURFACE)                                                                      \
-            add_to_cell(sorted[i].xyz, (kap), inv_coarse, cell_keys, cell_mask, kappa_sum, kappa_count, \
+            add_to_cell(sorted[i].xyz, (kap), inv_coarse, cell_keys, cell_capacity, kappa_sum, kappa_count, \
                         kappa_max);                                                                       \
         if (keep_kappa) kappa[i] = (kap);                                                                 \
     }
@@ -94,11 +94,11 @@ inline void add_to_cell(float3 x, float kap, float inv_coarse, __global const ul
 // adding its neighbours in candidate order (as in color_field).
 __kernel void particle_curvature(__global const float4* sorted, __global const uchar* flags,
                                  __global const uint* occupied, uint occupied_count, uint per_group, float inv_cell,
-                                 __global const ulong* bin_keys, ulong bin_mask, __global const uint2* range,
+                                 __global const ulong* bin_keys, ulong bin_capacity, __global const uint2* range,
                                  __global const float* normals, float R, uint keep_kappa,
                                  __local float4* cand, __local uint* bin_first, __local uint* bin_slot,
                                  __local uint* count, __local float4* cand_normal, float inv_coarse,
-                                 __global const ulong* cell_keys, ulong cell_mask, volatile __global ulong* kappa_sum,
+                                 __global const ulong* cell_keys, ulong cell_capacity, volatile __global ulong* kappa_sum,
                                  volatile __global uint* kappa_count, volatile __global uint* kappa_max,
                                  __global float* kappa) {
     const uint lid = get_local_id(0), lsize = get_local_size(0);
@@ -113,14 +113,14 @@ __kernel void particle_curvature(__global const float4* sorted, __global const u
             continue;
         }
         const int3 bin = cell_of(sorted[own.x], inv_cell);
-        const uint n_cand = gather_candidates(bin - 1, bin + 1, sorted, bin_keys, bin_mask, range, cand, bin_first,
+        const uint n_cand = gather_candidates(bin - 1, bin + 1, sorted, bin_keys, bin_capacity, range, cand, bin_first,
                                               bin_slot, count);
         if (n_cand > MAX_CANDIDATES) {
             for (uint k = lid; k < own.y; k += lsize) {
                 const uint i = own.x + k;
                 const float kap =
                     (flags[i] & FLAG_SURFACE)
-                        ? curvature_global(i, sorted, flags, inv_cell, bin_keys, bin_mask, range, normals, R)
+                        ? curvature_global(i, sorted, flags, inv_cell, bin_keys, bin_capacity, range, normals, R)
                         : 0.0f;
                 CURVATURE_RESULT(i, kap);
             }
@@ -163,7 +163,7 @@ __kernel void particle_curvature(__global const float4* sorted, __global const u
 
 // Paper eq. 3 per coarse cell. A cell without surface particles takes the largest curvature found
 // in its 26 neighbours (DESIGN §3.2).
-__kernel void cell_curvature(__global const uint* cells, uint count, __global const ulong* cell_keys, ulong cell_mask,
+__kernel void cell_curvature(__global const uint* cells, uint count, __global const ulong* cell_keys, ulong cell_capacity,
                              __global const ulong* kappa_sum, __global const uint* kappa_count,
                              __global const uint* kappa_max, __global float* cell_kappa) {
     if (get_global_id(0) >= count) return;
@@ -174,14 +174,14 @@ __kernel void cell_curvature(__global const uint* cells, uint count, __global co
         return;
     }
     uint m = 0;
-    FOR_EACH_CELL_IN_BLOCK(unpack_key(key), cell_keys, cell_mask, { m = max(m, kappa_max[t]); })
+    FOR_EACH_CELL_IN_BLOCK(unpack_key(key), cell_keys, cell_capacity, { m = max(m, kappa_max[t]); })
     cell_kappa[s] = as_float(m);
 }
 
 // Level per coarse cell: 3 if a splash or thin particle is near, or if the cell curvature averaged
 // over the surface cells of its 3x3x3 block reaches the threshold; else 2. The average (beyond the
 // paper) keeps level regions compact: fewer transition faces, fewer crack patches.
-__kernel void cell_levels(__global const uint* cells, uint count, __global const ulong* cell_keys, ulong cell_mask,
+__kernel void cell_levels(__global const uint* cells, uint count, __global const ulong* cell_keys, ulong cell_capacity,
                           __global const float* cell_kappa, __global const uint* cell_flags, float threshold,
                           __global uchar* level, __global float* smoothed) {
     if (get_global_id(0) >= count) return;
@@ -189,7 +189,7 @@ __kernel void cell_levels(__global const uint* cells, uint count, __global const
     const ulong key = cell_keys[s];
     float sum = 0.0f;
     int n = 0;
-    FOR_EACH_CELL_IN_BLOCK(unpack_key(key), cell_keys, cell_mask, { sum += cell_kappa[t]; ++n; })
+    FOR_EACH_CELL_IN_BLOCK(unpack_key(key), cell_keys, cell_capacity, { sum += cell_kappa[t]; ++n; })
     float k = sum / (float)n;
     smoothed[s] = k;
     level[s] = ((cell_flags[s] & CELL_SPLASH) || k >= threshold) ? 3 : 2;

@@ -1,5 +1,6 @@
-// Lock-free open-addressing hash of 64-bit keys (DESIGN §5): power-of-two capacity, linear
-// probing, insert-only, empty slot = all ones. Keys are lattice points or cells packed 20 bits
+// Lock-free open-addressing hash of 64-bit keys (DESIGN §5): any capacity that is a multiple of
+// 8 (so a table need not round up to a power of two: the fine-point table is most of the peak
+// memory), linear probing, insert-only, empty slot = all ones. Keys are lattice points or cells packed 20 bits
 // per axis (host/lattice.hpp). A probe longer than the capacity reports overflow (-1); the host
 // then grows the table and reruns the stage, so nothing is silently dropped. No work-item ever
 // waits for another (PoCL runs a work-group as a loop).
@@ -9,7 +10,7 @@
 #define AXIS_BITS 20
 #define AXIS_MASK 0xfffffUL
 
-// Home slot of a key (before the mask), identical to trilevel::lattice::hash(). Keys come in
+// Hash of a key, identical to trilevel::lattice::hash(); home_slot() maps it into a table. Keys come in
 // blocks of 2x2x2 whose eight members share one run of 8 slots (one cache line of keys): the
 // block goes through the splitmix64 finaliser, the key's place in it fills the low 3 bits. Points
 // with all coordinates even (the level-2 lattice) form blocks of their own on that lattice, so
@@ -31,6 +32,21 @@ inline ulong trilevel_hash(ulong k) {
     return (k << 3) | in_block;
 }
 
+// Home slot of a key in a table of `capacity` slots (a multiple of 8, below 2^35), identical to
+// trilevel::lattice::home_slot(). A power-of-two table takes the hash's low bits. Any other size
+// (the fine-point table, sized to what it holds) takes the block's run of 8 by multiply-shift: the
+// top 32 bits of the hash times the number of runs, shifted down 32 (a 32x32-bit product, which
+// vectorises where a 64-bit mul_hi does not); the key's place in its block fills the low 3 bits.
+// The particle bins keep the low-bit layout: their counting-sort buckets run in slot order, and
+// particle_curvature ran 25% slower on the multiply-shift order (x64).
+inline ulong home_slot(ulong k, ulong capacity) {
+    const ulong h = trilevel_hash(k);
+    if ((capacity & (capacity - 1)) == 0) return h & (capacity - 1);
+    return ((((h >> 32) * (capacity >> 3)) >> 32) << 3) | (h & 7UL);
+}
+
+inline ulong next_slot(ulong s, ulong capacity) { return s + 1 == capacity ? 0 : s + 1; }
+
 inline ulong pack_key(int3 p) {
     return (ulong)(uint)p.x | ((ulong)(uint)p.y << AXIS_BITS) | ((ulong)(uint)p.z << (2 * AXIS_BITS));
 }
@@ -46,23 +62,23 @@ inline int key_in_range(int3 p) {
 }
 
 // Returns the slot of `key`, or -1 when absent.
-inline long hash_find(const __global ulong* keys, ulong mask, ulong key) {
-    ulong s = trilevel_hash(key) & mask;
-    for (ulong i = 0; i <= mask; ++i) {
+inline long hash_find(const __global ulong* keys, ulong capacity, ulong key) {
+    ulong s = home_slot(key, capacity);
+    for (ulong i = 0; i < capacity; ++i) {
         ulong cur = keys[s];
         if (cur == key) return (long)s;
         if (cur == EMPTY_KEY) return -1;
-        s = (s + 1) & mask;
+        s = next_slot(s, capacity);
     }
     return -1;
 }
 
 // Inserts `key` and returns its slot, or -1 when the table is full (the caller raises the
 // overflow flag). *created tells whether this call put the key there.
-inline long hash_insert(volatile __global ulong* keys, ulong mask, ulong key, int* created) {
-    ulong s = trilevel_hash(key) & mask;
+inline long hash_insert(volatile __global ulong* keys, ulong capacity, ulong key, int* created) {
+    ulong s = home_slot(key, capacity);
     *created = 0;
-    for (ulong i = 0; i <= mask; ++i) {
+    for (ulong i = 0; i < capacity; ++i) {
         ulong cur = keys[s];
         if (cur == key) return (long)s;
         if (cur == EMPTY_KEY) {
@@ -70,37 +86,37 @@ inline long hash_insert(volatile __global ulong* keys, ulong mask, ulong key, in
             if (prev == EMPTY_KEY) { *created = 1; return (long)s; }
             if (prev == key) return (long)s;
         }
-        s = (s + 1) & mask;
+        s = next_slot(s, capacity);
     }
     return -1;
 }
 
 // hash_insert keeping the table's counters: stats[0] = overflow flag, stats[1] = keys newly
 // inserted (the host grows the table when it passes half the capacity).
-inline long hash_insert_counted(volatile __global ulong* keys, ulong mask, ulong key, volatile __global int* stats) {
+inline long hash_insert_counted(volatile __global ulong* keys, ulong capacity, ulong key, volatile __global int* stats) {
     int created;
-    const long s = hash_insert(keys, mask, key, &created);
+    const long s = hash_insert(keys, capacity, key, &created);
     if (created) atomic_inc(&stats[1]);
     if (s < 0) atomic_or(&stats[0], 1);
     return s;
 }
 
 // Test and maintenance kernel: inserts `n` keys, recording each key's slot.
-__kernel void hash_insert_keys(__global const ulong* in, uint n, volatile __global ulong* keys, ulong mask,
+__kernel void hash_insert_keys(__global const ulong* in, uint n, volatile __global ulong* keys, ulong capacity,
                                __global long* slot_of, volatile __global int* stats) {
     uint i = get_global_id(0);
     if (i >= n) return;
-    slot_of[i] = hash_insert_counted(keys, mask, in[i], stats);
+    slot_of[i] = hash_insert_counted(keys, capacity, in[i], stats);
 }
 
 // Moves every key (and its value) of an old table into a larger one.
 __kernel void hash_rehash(__global const ulong* old_keys, __global const float* old_values, ulong old_capacity,
-                          volatile __global ulong* keys, __global float* values, ulong mask,
+                          volatile __global ulong* keys, __global float* values, ulong capacity,
                           volatile __global int* stats) {
     ulong i = get_global_id(0);
     if (i >= old_capacity) return;
     ulong k = old_keys[i];
     if (k == EMPTY_KEY) return;
-    long s = hash_insert_counted(keys, mask, k, stats);
+    long s = hash_insert_counted(keys, capacity, k, stats);
     if (s >= 0) values[s] = old_values[i];
 }

@@ -12,12 +12,12 @@ inline int3 cell_of(float4 p, float inv_cell) {
 // `pos`: the input positions as packed xyz triples (3 floats a particle: at x512 a float4 array
 // would add 70 MB at binning's peak, the gather).
 __kernel void bin_insert(__global const float* pos, uint n, float inv_cell,
-                         volatile __global ulong* keys, ulong mask, __global int* slot_of,
+                         volatile __global ulong* keys, ulong capacity, __global int* slot_of,
                          volatile __global int* stats) {
     uint i = get_global_id(0);
     if (i >= n) return;
     const int3 c = convert_int3_rtn(vload3(i, pos) * inv_cell);
-    slot_of[i] = (int)hash_insert_counted(keys, mask, pack_key(c), stats);
+    slot_of[i] = (int)hash_insert_counted(keys, capacity, pack_key(c), stats);
 }
 
 __kernel void bin_count(__global const int* slot_of, uint n, volatile __global uint* count) {
@@ -57,7 +57,7 @@ __kernel void bin_gather(__global const uint* order, uint n, __global const floa
 
 // Neighbour loop over the 27 bins around `x`; used by every particle and grid-point stage.
 // BODY sees `float4 pj` and `uint j` (index into sorted arrays).
-#define FOR_EACH_NEIGHBOUR_BIN(X_, INV_CELL_, KEYS_, MASK_, RANGE_, SORTED_, BODY)              \
+#define FOR_EACH_NEIGHBOUR_BIN(X_, INV_CELL_, KEYS_, CAPACITY_, RANGE_, SORTED_, BODY)              \
     {                                                                                                  \
         int3 c0_ = cell_of((X_), (INV_CELL_));                                                 \
         for (int dz_ = -1; dz_ <= 1; ++dz_)                                                            \
@@ -65,7 +65,7 @@ __kernel void bin_gather(__global const uint* order, uint n, __global const floa
                 for (int dx_ = -1; dx_ <= 1; ++dx_) {                                                  \
                     int3 c_ = c0_ + (int3)(dx_, dy_, dz_);                                             \
                     if (!key_in_range(c_)) continue;                                                   \
-                    long s_ = hash_find((KEYS_), (MASK_), pack_key(c_));                          \
+                    long s_ = hash_find((KEYS_), (CAPACITY_), pack_key(c_));                      \
                     if (s_ < 0) continue;                                                              \
                     uint2 r_ = (RANGE_)[s_];                                                            \
                     for (uint j = r_.x; j < r_.x + r_.y; ++j) {                                        \
@@ -86,7 +86,7 @@ __kernel void bin_gather(__global const uint* order, uint n, __global const floa
 // of them fit the device's local memory, at most 2048.
 #define MAX_BINS 64
 inline uint gather_candidates(int3 blo, int3 bhi, __global const float4* sorted, __global const ulong* bin_keys,
-                              ulong bin_mask, __global const uint2* range, __local float4* cand,
+                              ulong bin_capacity, __global const uint2* range, __local float4* cand,
                               __local uint* bin_first, __local uint* bin_slot, __local uint* count) {
     const uint lid = get_local_id(0), lsize = get_local_size(0);
     const int3 bn = bhi - blo + 1;
@@ -95,7 +95,7 @@ inline uint gather_candidates(int3 blo, int3 bhi, __global const float4* sorted,
         uint total = 0;
         for (int b = 0; b < nbins && nbins <= MAX_BINS; ++b) {
             int3 q = blo + (int3)(b % bn.x, (b / bn.x) % bn.y, b / (bn.x * bn.y));
-            long s = key_in_range(q) ? hash_find(bin_keys, bin_mask, pack_key(q)) : -1;
+            long s = key_in_range(q) ? hash_find(bin_keys, bin_capacity, pack_key(q)) : -1;
             bin_slot[b] = (uint)s;
             bin_first[b] = total;
             if (s < 0) continue;

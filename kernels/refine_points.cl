@@ -5,7 +5,7 @@
 
 // cells: x, y, z = coarse coordinates, w = level. One work-item per (cell, local point).
 __kernel void refine_points(__global const int4* cells, uint cell_count, int coarse_steps,
-                            volatile __global ulong* keys, ulong mask, volatile __global int* stats) {
+                            volatile __global ulong* keys, ulong capacity, volatile __global int* stats) {
     uint gid = get_global_id(0);
     int side = coarse_steps + 1;
     uint per_cell = (uint)(side * side * side);
@@ -15,7 +15,7 @@ __kernel void refine_points(__global const int4* cells, uint cell_count, int coa
     int3 o = (int3)(l % side, (l / side) % side, l / (side * side));
     if (c.w == 2 && ((o.x | o.y | o.z) & 1)) return;  // level 2 uses every second point
     int3 p = c.xyz * coarse_steps + o;
-    hash_insert_counted(keys, mask, pack_key(p), stats);
+    hash_insert_counted(keys, capacity, pack_key(p), stats);
 }
 
 // Lists the slots whose value is still NaN (inserted, not evaluated).

@@ -96,7 +96,7 @@ inline float solenthaler_phi(float K, float3 S, float3 G, float3 A0, float3 A1, 
 
 __kernel void scalar_field(__global const uint* pending, uint count, __global const ulong* keys,
                            __global float* values, float step, __global const float4* sorted, float inv_cell,
-                           __global const ulong* bin_keys, ulong bin_mask, __global const uint2* range,
+                           __global const ulong* bin_keys, ulong bin_capacity, __global const uint2* range,
                            float r, float R) {
     uint i = get_global_id(0);
     if (i >= count) return;
@@ -106,7 +106,7 @@ __kernel void scalar_field(__global const uint* pending, uint count, __global co
     float K = 0.0f;
     float3 S = (float3)(0.0f), G = (float3)(0.0f);
     float3 A0 = (float3)(0.0f), A1 = (float3)(0.0f), A2 = (float3)(0.0f);  // rows of sum y (x) grad k
-    FOR_EACH_NEIGHBOUR_BIN(x, inv_cell, bin_keys, bin_mask, range, sorted, {
+    FOR_EACH_NEIGHBOUR_BIN(x, inv_cell, bin_keys, bin_capacity, range, sorted, {
         float3 y = pj.xyz - x.xyz;
         float d2 = dot(y, y);
         float q = 1.0f - d2 * inv_R2;
@@ -170,9 +170,9 @@ inline uint near_candidates(float8 X, float8 Y, float8 Z, __local const float4* 
 #define CLAIM_LISTED 4             /* the slots the host listed for the work-group (stage 8b) */
 
 __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, int claim,
-                                 volatile __global ulong* keys, ulong mask,
+                                 volatile __global ulong* keys, ulong capacity,
                                  volatile __global uint* value_bits, float step, __global const float4* sorted,
-                                 float inv_cell, __global const ulong* bin_keys, ulong bin_mask,
+                                 float inv_cell, __global const ulong* bin_keys, ulong bin_capacity,
                                  __global const uint2* range, float r, float R, volatile __global int* overflow,
                                  __local float4* cand, __local uint* bin_first, __local uint* bin_slot,
                                  __local uint* count, __local uint* claimed, __local uint* claimed_count,
@@ -190,7 +190,7 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
         blo = convert_int3_rtn((convert_float3(c.xyz * coarse_steps) * step - R) * inv_cell);
         bhi = convert_int3_rtn((convert_float3(c.xyz * coarse_steps + coarse_steps) * step + R) * inv_cell);
     }
-    const uint n_cand = gather_candidates(blo, bhi, sorted, bin_keys, bin_mask, range, cand, bin_first, bin_slot, count);
+    const uint n_cand = gather_candidates(blo, bhi, sorted, bin_keys, bin_capacity, range, cand, bin_first, bin_slot, count);
     const int side = coarse_steps + 1;
     const int points = side * side * side;
     const bool fits = n_cand <= MAX_CANDIDATES && points <= MAX_CELL_POINTS;
@@ -215,14 +215,14 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
         const ulong key = pack_key(c.xyz * coarse_steps + o);
         if (claim == CLAIM_INSERTED) {  // a point is evaluated by the work-group that created it
             int created;
-            const long slot = hash_insert(keys, mask, key, &created);
+            const long slot = hash_insert(keys, capacity, key, &created);
             if (slot < 0) atomic_or(&table_stats[0], 1);  // full: the host grows it and claims again
             if (!created) continue;
             atomic_inc(claimed_count);
             if (fits) claimed[l] = (uint)slot;
             continue;
         }
-        const long slot = hash_find((const __global ulong*)keys, mask, key);
+        const long slot = hash_find((const __global ulong*)keys, capacity, key);
         if (slot < 0) continue;
         if (atomic_cmpxchg(&value_bits[slot], PENDING_BITS, CLAIMED_BITS) != PENDING_BITS) continue;
         claimed[l] = (uint)slot;

@@ -11,7 +11,7 @@ inline int3 coarse_of(float3 p, float inv_coarse) {
 
 __kernel void mark_surface_cells(__global const float4* sorted, __global const uchar* flags, uint n,
                                  float inv_coarse, float half_box,
-                                 volatile __global ulong* cell_keys, ulong cell_mask,
+                                 volatile __global ulong* cell_keys, ulong cell_capacity,
                                  volatile __global int* stats) {
     uint i = get_global_id(0);
     if (i >= n || flags[i] == 0) return;
@@ -20,12 +20,12 @@ __kernel void mark_surface_cells(__global const float4* sorted, __global const u
     for (int z = lo.z; z <= hi.z; ++z)
         for (int y = lo.y; y <= hi.y; ++y)
             for (int x = lo.x; x <= hi.x; ++x)
-                hash_insert_counted(cell_keys, cell_mask, pack_key((int3)(x, y, z)), stats);
+                hash_insert_counted(cell_keys, cell_capacity, pack_key((int3)(x, y, z)), stats);
 }
 
 __kernel void mark_splash_cells(__global const float4* sorted, __global const uchar* flags, uint n,
                                 float inv_coarse, float half_box, __global const ulong* cell_keys,
-                                ulong cell_mask, volatile __global uint* cell_flags) {
+                                ulong cell_capacity, volatile __global uint* cell_flags) {
     uint i = get_global_id(0);
     if (i >= n || (flags[i] & (FLAG_SPLASH | FLAG_THIN)) == 0) return;
     int3 lo = coarse_of(sorted[i].xyz - half_box, inv_coarse);
@@ -33,7 +33,7 @@ __kernel void mark_splash_cells(__global const float4* sorted, __global const uc
     for (int z = lo.z; z <= hi.z; ++z)
         for (int y = lo.y; y <= hi.y; ++y)
             for (int x = lo.x; x <= hi.x; ++x) {
-                long s = hash_find(cell_keys, cell_mask, pack_key((int3)(x, y, z)));
+                long s = hash_find(cell_keys, cell_capacity, pack_key((int3)(x, y, z)));
                 if (s >= 0) atomic_or(&cell_flags[s], CELL_SPLASH);
             }
 }

@@ -1,6 +1,7 @@
 #include "device_stages.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -16,12 +17,6 @@
 
 namespace trilevel {
 namespace {
-
-std::size_t next_pow2(std::size_t v) {
-    std::size_t c = 1024;
-    while (c < v) c *= 2;
-    return c;
-}
 
 template <class... Args>
 void set_args_from(cl::Kernel& k, cl_uint first, const Args&... args) {
@@ -41,10 +36,14 @@ DeviceBuffer upload(OpenCLRuntime& rt, const std::vector<T>& data, const char* w
     return buf;
 }
 
+/// A table of at least `capacity` slots (1024 at least). Rounded up to a power of two unless
+/// `exact`: the particle-bin and coarse-cell tables are small, and their lower load keeps the
+/// probes short in the hot neighbour loops; the fine-point table is most of the peak memory.
 DeviceHash make_hash(OpenCLRuntime& rt, std::size_t capacity, const char* what,
-                     cl_mem_flags flags = CL_MEM_READ_WRITE) {
+                     cl_mem_flags flags = CL_MEM_READ_WRITE, bool exact = false) {
     DeviceHash h;
-    h.capacity = next_pow2(capacity);
+    capacity = std::max<std::size_t>(capacity, 1024);
+    h.capacity = lattice::table_capacity(exact ? capacity : std::bit_ceil(capacity));
     h.keys = rt.buffer(h.capacity * sizeof(cl_ulong), what, flags);
     h.stats = rt.buffer(2 * sizeof(cl_int), (std::string(what) + " counters").c_str());
     rt.queue().enqueueFillBuffer(h.keys, ~cl_ulong{0}, 0, h.capacity * sizeof(cl_ulong));
@@ -61,17 +60,21 @@ HashCounters read_counters(OpenCLRuntime& rt, const DeviceHash& h) {
     rt.queue().enqueueReadBuffer(h.stats, CL_TRUE, 0, sizeof(s), s);
     return {s[0] != 0, std::size_t(s[1])};
 }
-bool needs_growth(const HashCounters& c, const DeviceHash& h) { return c.overflow || c.inserted * 2 > h.capacity; }
+/// Whether a table that took `c` must grow: it overflowed, or holds more than `max_load` of its slots.
+bool needs_growth(const HashCounters& c, const DeviceHash& h, double max_load = 0.5) {
+    return c.overflow || double(c.inserted) > max_load * double(h.capacity);
+}
 
-/// Runs `insert` into a fresh table until it fits at load factor <= 0.5 (DESIGN §5).
+/// Runs `insert` into a fresh table until it fits at load factor <= 0.5 (DESIGN §5); `exact` as
+/// in make_hash.
 template <class Insert>
-DeviceHash insert_growing(OpenCLRuntime& rt, std::size_t capacity, const char* what, Insert insert) {
+DeviceHash insert_growing(OpenCLRuntime& rt, std::size_t capacity, const char* what, bool exact, Insert insert) {
     for (;;) {
-        DeviceHash h = make_hash(rt, capacity, what);
+        DeviceHash h = make_hash(rt, capacity, what, CL_MEM_READ_WRITE, exact);
         insert(h);
         HashCounters c = read_counters(rt, h);
         if (!needs_growth(c, h)) return h;
-        capacity = std::max(h.capacity * 2, next_pow2(c.inserted * 2 + 1));
+        capacity = std::max(h.capacity * 2, c.inserted * 2 + 1);
     }
 }
 
@@ -153,8 +156,8 @@ BinnedParticles bin_particles(OpenCLRuntime& rt, const float* xyz, std::size_t p
     if (uploaded) uploaded();
     DeviceBuffer slot_of = rt.buffer(n * sizeof(cl_int), "particle bins");
 
-    b.bins = insert_growing(rt, b.count / 4, "particle bin hash", [&](DeviceHash& h) {
-        set_args(rt.kernel("bin_insert"), pos, n, inv_cell, h.keys, cl_ulong(h.mask()), slot_of, h.stats);
+    b.bins = insert_growing(rt, std::size_t(float(b.count) * constants::kBinSlotsPerParticle), "particle bin hash", false, [&](DeviceHash& h) {
+        set_args(rt.kernel("bin_insert"), pos, n, inv_cell, h.keys, cl_ulong(h.capacity), slot_of, h.stats);
         rt.run("bin_insert", n);
     });
     const std::size_t cap = b.bins.capacity;
@@ -194,7 +197,7 @@ ParticleClasses classify_particles(OpenCLRuntime& rt, const BinnedParticles& b, 
     c.flags = rt.buffer(n * sizeof(cl_uchar), "particle flags");
     const float volume = std::pow(2.0f * r, 3.0f);
     set_args(rt.kernel("color_field"), b.sorted, b.occupied, cl_uint(b.occupied_count), cl_uint(kBinsPerGroup),
-             1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.mask()), b.range, R, volume, c.gradient, c.flags);
+             1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.capacity), b.range, R, volume, c.gradient, c.flags);
     set_candidate_args(rt, rt.kernel("color_field"), 12);
     rt.run_groups("color_field", (b.occupied_count + kBinsPerGroup - 1) / kBinsPerGroup, kBinGroup);
     for (cl_uchar f : read_buffer<cl_uchar>(rt, c.flags, n)) {
@@ -228,17 +231,17 @@ void cell_curvature_levels(OpenCLRuntime& rt, const BinnedParticles& b, Particle
     rt.run("particle_normals", n);
     cl::Kernel& k = rt.kernel("particle_curvature");
     set_args(k, b.sorted, c.flags, b.occupied, cl_uint(b.occupied_count), cl_uint(kBinsPerGroup), 1.0f / b.cell,
-             b.bins.keys, cl_ulong(b.bins.mask()), b.range, normals, R, cl_uint(keep_kappa));
+             b.bins.keys, cl_ulong(b.bins.capacity), b.range, normals, R, cl_uint(keep_kappa));
     set_candidate_args(rt, k, 12);
     k.setArg(16, cl::Local(rt.max_candidates() * sizeof(cl_float4)));  // normals
-    set_args_from(k, 17, inv_coarse, cells.keys, cl_ulong(cells.mask()), sum, cnt, mx, kappa);
+    set_args_from(k, 17, inv_coarse, cells.keys, cl_ulong(cells.capacity), sum, cnt, mx, kappa);
     rt.run_groups("particle_curvature", (b.occupied_count + kBinsPerGroup - 1) / kBinsPerGroup, kBinGroup);
     c.gradient = DeviceBuffer{};  // normals and flags are read: freed before the buffers below
     c.flags = DeviceBuffer{};
     DeviceBuffer raw = rt.buffer(cap * sizeof(cl_float), "unsmoothed cell curvature");
-    set_args(rt.kernel("cell_curvature"), morton_cells, count, cells.keys, cl_ulong(cells.mask()), sum, cnt, mx, raw);
+    set_args(rt.kernel("cell_curvature"), morton_cells, count, cells.keys, cl_ulong(cells.capacity), sum, cnt, mx, raw);
     rt.run("cell_curvature", count);
-    set_args(rt.kernel("cell_levels"), morton_cells, count, cells.keys, cl_ulong(cells.mask()), raw, cell_flags,
+    set_args(rt.kernel("cell_levels"), morton_cells, count, cells.keys, cl_ulong(cells.capacity), raw, cell_flags,
              threshold, level, cell_kappa);
     rt.run("cell_levels", count);
 }
@@ -251,15 +254,15 @@ SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& b, Particle
     const float inv_coarse = 1.0f / coarse_edge;
     const float half_box = constants::kSurfaceBoxHalf * r;
     const auto first_capacity = std::size_t(float(c.surface + c.splash) * constants::kCoarseCellsPerSurfaceParticle);
-    DeviceHash cells = insert_growing(rt, first_capacity, "coarse cell hash", [&](DeviceHash& h) {
+    DeviceHash cells = insert_growing(rt, first_capacity, "coarse cell hash", true, [&](DeviceHash& h) {
         set_args(rt.kernel("mark_surface_cells"), b.sorted, c.flags, n, inv_coarse, half_box, h.keys,
-                 cl_ulong(h.mask()), h.stats);
+                 cl_ulong(h.capacity), h.stats);
         rt.run("mark_surface_cells", n);
     });
     const std::size_t cap = cells.capacity;
     DeviceBuffer flags = rt.buffer(cap * sizeof(cl_uint), "coarse cell flags");
     rt.queue().enqueueFillBuffer(flags, cl_uint{0}, 0, cap * sizeof(cl_uint));
-    set_args(rt.kernel("mark_splash_cells"), b.sorted, c.flags, n, inv_coarse, constants::kSplashBoxHalf * r, cells.keys, cl_ulong(cells.mask()),
+    set_args(rt.kernel("mark_splash_cells"), b.sorted, c.flags, n, inv_coarse, constants::kSplashBoxHalf * r, cells.keys, cl_ulong(cells.capacity),
              flags);
     rt.run("mark_splash_cells", n);
 
@@ -324,19 +327,30 @@ std::size_t estimate_points(const std::vector<CoarseCell>& cells, int coarse_ste
     return total;
 }
 
+/// The fine-point table grows only when it would hold more than kFineMaxLoad of its slots, and then
+/// to load 1/2 (DESIGN §5). Tables are sized to what they hold, not to powers of two (x64: 6.8 M
+/// slots for 3.4 M points, not 8.4 M), and the headroom between the two loads takes the points the
+/// later passes add (band closure, edge midpoints) without a rehash, which holds both tables at once.
+constexpr double kFineMaxLoad = 0.6;
+
 void grow_fine_points(OpenCLRuntime& rt, FinePoints& p, std::size_t capacity) {
     // Host-accessible, so that mapping the table for the host stages costs no copy on CPU devices.
     constexpr cl_mem_flags kShared = CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR;
-    DeviceHash h = make_hash(rt, capacity, "fine point hash", kShared);
+    DeviceHash h = make_hash(rt, capacity, "fine point hash", kShared, true);
     DeviceBuffer values = rt.buffer(h.capacity * sizeof(cl_float), "fine point values", kShared);
     rt.queue().enqueueFillBuffer(values, std::numeric_limits<float>::quiet_NaN(), 0, h.capacity * sizeof(cl_float));
     if (p.hash.capacity) {
         set_args(rt.kernel("hash_rehash"), p.hash.keys, p.values, cl_ulong(p.hash.capacity), h.keys, values,
-                 cl_ulong(h.mask()), h.stats);
+                 cl_ulong(h.capacity), h.stats);
         rt.run("hash_rehash", p.hash.capacity);
     }
     p.hash = std::move(h);  // the old table goes back to the pool (queued commands keep their order)
     p.values = std::move(values);
+}
+
+/// Grows the table to load 1/2 when `keys` points would pass kFineMaxLoad of it.
+void ensure_fine_room(OpenCLRuntime& rt, FinePoints& p, std::size_t keys) {
+    if (double(keys) > kFineMaxLoad * double(p.hash.capacity)) grow_fine_points(rt, p, keys * 2);
 }
 
 /// Cells as int4 (x, y, z, level) on the device.
@@ -362,8 +376,8 @@ bool evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf
     rt.queue().enqueueFillBuffer(overflow, cl_int{0}, 0, sizeof(cl_int));
     constexpr std::size_t kMaxCellPoints = 729;  // as in scalar_field.cl
     auto& k = rt.kernel("scalar_field_cells");
-    set_args(k, cell_buf, cl_int(frame.coarse_steps), cl_int(claim), p.hash.keys, cl_ulong(p.hash.mask()),
-             p.values, frame.step, b.sorted, 1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.mask()), b.range, r, R,
+    set_args(k, cell_buf, cl_int(frame.coarse_steps), cl_int(claim), p.hash.keys, cl_ulong(p.hash.capacity),
+             p.values, frame.step, b.sorted, 1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.capacity), b.range, r, R,
              overflow);
     set_candidate_args(rt, k, 15);
     k.setArg(19, cl::Local(kMaxCellPoints * sizeof(cl_uint)));
@@ -404,7 +418,7 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<Coa
     reserve_fine_points(rt, p, cells, frame, 0);
     if (claim == ClaimPoints::Level) {  // one pass: each cell inserts its points and evaluates those it created
         if (evaluate_cells(rt, p, cell_buf, cells.size(), ClaimPoints::Inserted, frame, b, r, R)) {
-            if (p.inserted * 2 > p.hash.capacity) grow_fine_points(rt, p, next_pow2(p.inserted * 2 + 1));
+            ensure_fine_room(rt, p, p.inserted);
             rt.finish();
             return;
         }
@@ -412,12 +426,12 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<Coa
     }
     for (;;) {  // stage 5; inserting is idempotent, so after growth the pass simply runs again
         set_args(rt.kernel("refine_points"), cell_buf, cl_uint(cells.size()), cl_int(frame.coarse_steps), p.hash.keys,
-                 cl_ulong(p.hash.mask()), p.hash.stats);
+                 cl_ulong(p.hash.capacity), p.hash.stats);
         rt.run("refine_points", work);
         HashCounters c = read_counters(rt, p.hash);
         p.inserted = c.inserted;
-        if (!needs_growth(c, p.hash)) break;
-        grow_fine_points(rt, p, std::max(p.hash.capacity * 2, next_pow2(c.inserted * 2 + 1)));
+        if (!needs_growth(c, p.hash, kFineMaxLoad)) break;
+        grow_fine_points(rt, p, std::max(p.hash.capacity * 2, c.inserted * 2 + 1));
     }
     evaluate_cells(rt, p, cell_buf, cells.size(), claim, frame, b, r, R);
     rt.finish();
@@ -433,7 +447,7 @@ void evaluate_pending(OpenCLRuntime& rt, FinePoints& p, const LatticeFrame& fram
     rt.run("collect_pending", p.hash.capacity);
     const cl_uint todo = read_buffer<cl_uint>(rt, count, 1)[0];
     set_args(rt.kernel("scalar_field"), pending, todo, p.hash.keys, p.values, frame.step, b.sorted, 1.0f / b.cell,
-             b.bins.keys, cl_ulong(b.bins.mask()), b.range, r, R);
+             b.bins.keys, cl_ulong(b.bins.capacity), b.range, r, R);
     rt.run("scalar_field", todo);
     rt.finish();
 }
@@ -445,14 +459,14 @@ DeviceBuffer insert_keys(OpenCLRuntime& rt, FinePoints& p, const std::vector<std
     const cl_uint n = cl_uint(keys.size());
     const DeviceBuffer in = upload(rt, keys, "extra fine points");
     DeviceBuffer slots = rt.buffer(n * sizeof(cl_long), "extra fine point slots");
-    if (p.hash.capacity < (p.inserted + n) * 2) grow_fine_points(rt, p, (p.inserted + n) * 2);
+    ensure_fine_room(rt, p, p.inserted + n);
     for (;;) {  // after growth every key goes in again: the slots are those of the final table
-        set_args(rt.kernel("hash_insert_keys"), in, n, p.hash.keys, cl_ulong(p.hash.mask()), slots, p.hash.stats);
+        set_args(rt.kernel("hash_insert_keys"), in, n, p.hash.keys, cl_ulong(p.hash.capacity), slots, p.hash.stats);
         rt.run("hash_insert_keys", n);
         HashCounters c = read_counters(rt, p.hash);
         p.inserted = c.inserted;
-        if (!needs_growth(c, p.hash)) break;
-        grow_fine_points(rt, p, std::max(p.hash.capacity * 2, next_pow2(c.inserted * 2 + 1)));
+        if (!needs_growth(c, p.hash, kFineMaxLoad)) break;
+        grow_fine_points(rt, p, std::max(p.hash.capacity * 2, c.inserted * 2 + 1));
     }
     return slots;
 }
@@ -461,8 +475,7 @@ DeviceBuffer insert_keys(OpenCLRuntime& rt, FinePoints& p, const std::vector<std
 
 void reserve_fine_points(OpenCLRuntime& rt, FinePoints& p, const std::vector<CoarseCell>& cells,
                          const LatticeFrame& frame, std::size_t extra) {
-    const std::size_t want = (p.inserted + extra + estimate_points(cells, frame.coarse_steps)) * 2;
-    if (p.hash.capacity < want) grow_fine_points(rt, p, want);
+    ensure_fine_room(rt, p, p.inserted + extra + estimate_points(cells, frame.coarse_steps));
 }
 
 void insert_points(OpenCLRuntime& rt, FinePoints& p, const std::vector<std::uint64_t>& keys) {

@@ -21,7 +21,6 @@ struct DeviceHash {
     DeviceBuffer keys;
     DeviceBuffer stats;  ///< int[2]: overflow flag, keys inserted
     std::size_t capacity = 0;
-    std::uint64_t mask() const { return capacity - 1; }
 };
 
 /// Stage 1: particles binned by a stable counting sort into a sparse grid of cell `cell`.

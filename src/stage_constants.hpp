@@ -41,6 +41,13 @@ constexpr float kSurfaceBoxHalf = 2.0f;
 /// per-cell buffer of stage 4 and every host read of them is as long as the table.
 constexpr float kCoarseCellsPerSurfaceParticle = 0.75f;
 
+/// First capacity of the particle-bin hash, per particle (rounded up to a power of two). A bin of
+/// edge R = 4r holds 8 particles of a lattice of spacing 2r; the dam-break frames have 7 (the
+/// original frame) to 15 (x512) particles per occupied bin, so the table starts at load 0.14-0.5
+/// and sparse scenes grow it once. A quarter, as before, left x512's table at load 0.14: 8.4 M
+/// slots of keys, counts and ranges (168 MB) for 1.2 M bins.
+constexpr float kBinSlotsPerParticle = 0.125f;
+
 /// Splash cells: surface cells overlapping x_i ± kSplashBoxHalf * r around a splash or thin particle
 /// (the same box that makes surface cells: the cells that hold its blob). Wider boxes (e.g. ±R)
 /// turned many more cells level 3 around droplets near the main surface, each adding crack patches,
