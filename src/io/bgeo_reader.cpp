@@ -36,6 +36,8 @@ public:
     BgeoBytes& operator=(const BgeoBytes&) = delete;
 
     bool gzipped() const { return gz_; }
+    /// Whether all was inflated in one piece: the file's bytes are no longer read.
+    bool inflated_whole() const { return bool(whole_); }
     const char* data() const { return whole_ ? whole_.get() : gz_ ? out_.data() : file_.data(); }
     std::size_t size() const { return whole_ ? whole_size_ : gz_ ? out_.size() : file_.size(); }  ///< bytes available so far
 
@@ -235,6 +237,7 @@ ParticleSet read_bgeo(const ReadRequest& r) {
     if (!bytes.ensure(cur.pos + need))
         fail(path, cur.where() + ": truncated point data: " + std::to_string(n) + " points of " + std::to_string(record) +
                        " bytes need " + byte_size_text(need) + ", " + byte_size_text(bytes.size() - cur.pos) + " left");
+    if (r.releasable && bytes.inflated_whole()) std::string().swap(*r.releasable);  // before the positions
     const char* base = bytes.data() + cur.pos;
     ParticleSet set;
     set.positions.resize(3 * static_cast<std::size_t>(n));

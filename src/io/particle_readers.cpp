@@ -104,11 +104,13 @@ Reader particle_reader(const std::string& ext) {
 
 }  // namespace
 
-ParticleSet read_particles_from_memory(const std::string& ext, const std::string& path, const std::string& data,
-                                       const ReadOptions& options) {
+namespace {
+
+ParticleSet read_from_memory(const std::string& ext, const std::string& path, const std::string& data,
+                             std::string* releasable, const ReadOptions& options) {
     const Reader reader = particle_reader(ext);
     if (!reader) unknown_extension(path, ext);
-    ReadRequest request{path, data, {}, options.drop_invalid};
+    ReadRequest request{path, data, {}, options.drop_invalid, releasable};
     for (const auto& name : options.attributes)  // a name asked twice is read once
         if (std::find(request.attributes.begin(), request.attributes.end(), name) == request.attributes.end())
             request.attributes.push_back(name);
@@ -117,13 +119,21 @@ ParticleSet read_particles_from_memory(const std::string& ext, const std::string
     return set;
 }
 
+}  // namespace
+
+ParticleSet read_particles_from_memory(const std::string& ext, const std::string& path, const std::string& data,
+                                       const ReadOptions& options) {
+    return read_from_memory(ext, path, data, nullptr, options);
+}
+
 }  // namespace io
 
 ParticleSet read_particles(const std::string& path, const ReadOptions& options) {
     io::require_file(path);  // a missing file is reported as such, whatever its name
     const std::string ext = io::extension_of(path);
     if (!io::particle_reader(ext)) io::unknown_extension(path, ext);  // before reading the whole file
-    return io::read_particles_from_memory(ext, path, io::read_file(path), options);
+    std::string data = io::read_file(path);
+    return io::read_from_memory(ext, path, data, &data, options);
 }
 
 }  // namespace trilevel
