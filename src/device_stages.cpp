@@ -36,9 +36,11 @@ DeviceBuffer upload(OpenCLRuntime& rt, const std::vector<T>& data, const char* w
     return buf;
 }
 
-/// A table of at least `capacity` slots (1024 at least). Rounded up to a power of two unless
-/// `exact`: the particle-bin and coarse-cell tables are small, and their lower load keeps the
-/// probes short in the hot neighbour loops; the fine-point table is most of the peak memory.
+/// A table of at least `capacity` slots (1024 at least), rounded up to a power of two unless
+/// `exact`. The particle bins keep the power of two: their slot order is the particles' sorted
+/// order, and the low-bit layout keeps it cache-friendly (home_slot in hash_table.cl). The
+/// coarse-cell and fine-point tables are sized to what they hold (the fine points are most of
+/// the peak memory).
 DeviceHash make_hash(OpenCLRuntime& rt, std::size_t capacity, const char* what,
                      cl_mem_flags flags = CL_MEM_READ_WRITE, bool exact = false) {
     DeviceHash h;
