@@ -92,7 +92,7 @@ inline long hash_insert(volatile __global ulong* keys, ulong capacity, ulong key
 }
 
 // hash_insert keeping the table's counters: stats[0] = overflow flag, stats[1] = keys newly
-// inserted (the host grows the table when it passes half the capacity).
+// inserted (the host grows the table when it passes its load limit: 1/2, fine points 0.6).
 inline long hash_insert_counted(volatile __global ulong* keys, ulong capacity, ulong key, volatile __global int* stats) {
     int created;
     const long s = hash_insert(keys, capacity, key, &created);

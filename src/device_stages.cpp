@@ -319,7 +319,7 @@ std::size_t estimate_points(const std::vector<CoarseCell>& cells, int coarse_ste
     for (const auto& c : cells) {
         std::size_t side = std::size_t(coarse_steps / stride(c.level));
         // A cell owns about side^3 points (neighbours share the rest), plus some on faces without a
-        // neighbour. Underestimates only cost a rehash (the table grows at load 1/2).
+        // neighbour. Underestimates only cost a rehash (the table grows past kFineMaxLoad).
         total += side * side * side + side * side / 2;
         // Refined midpoints of crossed edges (edge_refinement.hpp): about 2 a level-2 cell on the
         // dam-break frames (x512: 11.7 unique points a level-2 cell in all). 2 side^2 (8) here made

@@ -91,7 +91,7 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vecto
 void evaluate_pending(OpenCLRuntime& rt, FinePoints& points, const LatticeFrame& frame, const BinnedParticles& bins,
                       float r, float R);
 /// Grows the table, if it must, so that `extra` more points and those refining `cells` will add
-/// fit at load 1/2: one table from the start where points are inserted before a pass (the level-2
+/// fit (to load 1/2 when they would pass load 0.6): one table from the start where points are inserted before a pass (the level-2
 /// check's cube centres), instead of a table for them rehashed into a larger one.
 void reserve_fine_points(OpenCLRuntime& rt, FinePoints& points, const std::vector<CoarseCell>& cells,
                          const LatticeFrame& frame, std::size_t extra);
