@@ -67,6 +67,11 @@ bool needs_growth(const HashCounters& c, const DeviceHash& h, double max_load = 
     return c.overflow || double(c.inserted) > max_load * double(h.capacity);
 }
 
+/// The capacity a table that must grow gets: twice its own, or load 1/2 for what it took.
+std::size_t grown_capacity(const DeviceHash& h, const HashCounters& c) {
+    return std::max(h.capacity * 2, c.inserted * 2 + 1);
+}
+
 /// Runs `insert` into a fresh table until it fits at load factor <= 0.5 (DESIGN §5); `exact` as
 /// in make_hash.
 template <class Insert>
@@ -76,7 +81,7 @@ DeviceHash insert_growing(OpenCLRuntime& rt, std::size_t capacity, const char* w
         insert(h);
         HashCounters c = read_counters(rt, h);
         if (!needs_growth(c, h)) return h;
-        capacity = std::max(h.capacity * 2, c.inserted * 2 + 1);
+        capacity = grown_capacity(h, c);
     }
 }
 
@@ -319,7 +324,7 @@ std::size_t estimate_points(const std::vector<CoarseCell>& cells, int coarse_ste
     for (const auto& c : cells) {
         std::size_t side = std::size_t(coarse_steps / stride(c.level));
         // A cell owns about side^3 points (neighbours share the rest), plus some on faces without a
-        // neighbour. Underestimates only cost a rehash (the table grows past kFineMaxLoad).
+        // neighbour. Underestimates only cost a rehash (the table grows past FinePoints::kMaxLoad).
         total += side * side * side + side * side / 2;
         // Refined midpoints of crossed edges (edge_refinement.hpp): about 2 a level-2 cell on the
         // dam-break frames (x512: 11.7 unique points a level-2 cell in all). 2 side^2 (8) here made
@@ -328,12 +333,6 @@ std::size_t estimate_points(const std::vector<CoarseCell>& cells, int coarse_ste
     }
     return total;
 }
-
-/// The fine-point table grows only when it would hold more than kFineMaxLoad of its slots, and then
-/// to load 1/2 (DESIGN §5). Tables are sized to what they hold, not to powers of two (x64: 6.8 M
-/// slots for 3.4 M points, not 8.4 M), and the headroom between the two loads takes the points the
-/// later passes add (band closure, edge midpoints) without a rehash, which holds both tables at once.
-constexpr double kFineMaxLoad = 0.6;
 
 void grow_fine_points(OpenCLRuntime& rt, FinePoints& p, std::size_t capacity) {
     // Host-accessible, so that mapping the table for the host stages costs no copy on CPU devices.
@@ -350,9 +349,22 @@ void grow_fine_points(OpenCLRuntime& rt, FinePoints& p, std::size_t capacity) {
     p.values = std::move(values);
 }
 
-/// Grows the table to load 1/2 when `keys` points would pass kFineMaxLoad of it.
+/// Grows the table to load 1/2 when `keys` points would pass FinePoints::kMaxLoad of it. The
+/// table is sized to what it holds, not to a power of two (x64: 6.8 M slots for 3.4 M points, not
+/// 8.4 M).
 void ensure_fine_room(OpenCLRuntime& rt, FinePoints& p, std::size_t keys) {
-    if (double(keys) > kFineMaxLoad * double(p.hash.capacity)) grow_fine_points(rt, p, keys * 2);
+    if (double(keys) > FinePoints::kMaxLoad * double(p.hash.capacity)) grow_fine_points(rt, p, keys * 2);
+}
+
+/// After an insert pass into the fine-point table: records its count, and grows the table when
+/// the pass overflowed it or left it past FinePoints::kMaxLoad. True when it grew (inserting is
+/// idempotent: the caller runs the pass again).
+bool grew_after_insert(OpenCLRuntime& rt, FinePoints& p) {
+    const HashCounters c = read_counters(rt, p.hash);
+    p.inserted = c.inserted;
+    if (!needs_growth(c, p.hash, FinePoints::kMaxLoad)) return false;
+    grow_fine_points(rt, p, grown_capacity(p.hash, c));
+    return true;
 }
 
 /// Cells as int4 (x, y, z, level) on the device.
@@ -430,10 +442,7 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<Coa
         set_args(rt.kernel("refine_points"), cell_buf, cl_uint(cells.size()), cl_int(frame.coarse_steps), p.hash.keys,
                  cl_ulong(p.hash.capacity), p.hash.stats);
         rt.run("refine_points", work);
-        HashCounters c = read_counters(rt, p.hash);
-        p.inserted = c.inserted;
-        if (!needs_growth(c, p.hash, kFineMaxLoad)) break;
-        grow_fine_points(rt, p, std::max(p.hash.capacity * 2, c.inserted * 2 + 1));
+        if (!grew_after_insert(rt, p)) break;
     }
     evaluate_cells(rt, p, cell_buf, cells.size(), claim, frame, b, r, R);
     rt.finish();
@@ -465,10 +474,7 @@ DeviceBuffer insert_keys(OpenCLRuntime& rt, FinePoints& p, const std::vector<std
     for (;;) {  // after growth every key goes in again: the slots are those of the final table
         set_args(rt.kernel("hash_insert_keys"), in, n, p.hash.keys, cl_ulong(p.hash.capacity), slots, p.hash.stats);
         rt.run("hash_insert_keys", n);
-        HashCounters c = read_counters(rt, p.hash);
-        p.inserted = c.inserted;
-        if (!needs_growth(c, p.hash, kFineMaxLoad)) break;
-        grow_fine_points(rt, p, std::max(p.hash.capacity * 2, c.inserted * 2 + 1));
+        if (!grew_after_insert(rt, p)) break;
     }
     return slots;
 }

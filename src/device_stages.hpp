@@ -67,6 +67,10 @@ SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& bins, Parti
 
 /// Stages 5-6: the fine lattice points and their scalar values.
 struct FinePoints {
+    /// The table grows only when it would hold more than this share of its slots, and then to load
+    /// 1/2 (DESIGN §5). The headroom between the two takes the points that the later passes add
+    /// (band closure, edge midpoints) without a rehash, which holds both tables at once.
+    static constexpr double kMaxLoad = 0.6;
     DeviceHash hash;
     DeviceBuffer values;  ///< float per slot; NaN until evaluated
     std::size_t inserted = 0;
@@ -91,7 +95,7 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vecto
 void evaluate_pending(OpenCLRuntime& rt, FinePoints& points, const LatticeFrame& frame, const BinnedParticles& bins,
                       float r, float R);
 /// Grows the table, if it must, so that `extra` more points and those refining `cells` will add
-/// fit (to load 1/2 when they would pass load 0.6): one table from the start where points are inserted before a pass (the level-2
+/// fit (to load 1/2 when they would pass FinePoints::kMaxLoad): one table from the start where points are inserted before a pass (the level-2
 /// check's cube centres), instead of a table for them rehashed into a larger one.
 void reserve_fine_points(OpenCLRuntime& rt, FinePoints& points, const std::vector<CoarseCell>& cells,
                          const LatticeFrame& frame, std::size_t extra);

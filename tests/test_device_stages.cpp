@@ -329,7 +329,7 @@ TEST_CASE("refinement falls back to separate insert and evaluate passes when the
     FinePoints points;
     refine_and_evaluate(rt, points, cells, frame, b, r, R);
     CHECK(points.inserted == 40 * 27);
-    CHECK(double(points.inserted) <= 0.6 * double(points.hash.capacity));  // kFineMaxLoad
+    CHECK(double(points.inserted) <= FinePoints::kMaxLoad * double(points.hash.capacity));
     FinePointMap map = read_fine_points(rt, points);
     std::vector<glm::vec3> pts;
     std::vector<float> dev;
