@@ -16,7 +16,7 @@ __kernel void bin_insert(__global const float* pos, uint n, float inv_cell,
                          volatile __global int* stats) {
     uint i = get_global_id(0);
     if (i >= n) return;
-    const int3 c = convert_int3_rtn(vload3(i, pos) * inv_cell);
+    const int3 c = cell_of((float4)(vload3(i, pos), 0.0f), inv_cell);
     slot_of[i] = (int)hash_insert_counted(keys, capacity, pack_key(c), stats);
 }
 
