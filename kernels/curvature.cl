@@ -178,19 +178,24 @@ __kernel void cell_curvature(__global const uint* cells, uint count, __global co
     cell_kappa[s] = as_float(m);
 }
 
-// Level per coarse cell: 3 if a splash or thin particle is near, or if the cell curvature averaged
-// over the surface cells of its 3x3x3 block reaches the threshold; else 2. The average (beyond the
-// paper) keeps level regions compact: fewer transition faces, fewer crack patches.
-__kernel void cell_levels(__global const uint* cells, uint count, __global const ulong* cell_keys, ulong cell_capacity,
-                          __global const float* cell_kappa, __global const uint* cell_flags, float threshold,
-                          __global uchar* level, __global float* smoothed) {
+// One smoothing pass (beyond the paper): the mean of `in` over the surface cells of the 3x3x3 block
+// around each cell, summed in z, y, x order (DESIGN §6). constants::kCurvatureSmoothingPasses passes
+// keep level regions compact on noisy curvature: fewer transition faces, fewer crack patches.
+__kernel void smooth_cell_curvature(__global const uint* cells, uint count, __global const ulong* cell_keys,
+                                    ulong cell_capacity, __global const float* in, __global float* out) {
     if (get_global_id(0) >= count) return;
     const uint s = cells[get_global_id(0)];
-    const ulong key = cell_keys[s];
     float sum = 0.0f;
     int n = 0;
-    FOR_EACH_CELL_IN_BLOCK(unpack_key(key), cell_keys, cell_capacity, { sum += cell_kappa[t]; ++n; })
-    float k = sum / (float)n;
-    smoothed[s] = k;
-    level[s] = ((cell_flags[s] & CELL_SPLASH) || k >= threshold) ? 3 : 2;
+    FOR_EACH_CELL_IN_BLOCK(unpack_key(cell_keys[s]), cell_keys, cell_capacity, { sum += in[t]; ++n; })
+    out[s] = sum / (float)n;
+}
+
+// Level per coarse cell: 3 if a splash or thin particle is near or if its smoothed curvature reaches
+// the threshold; else 2.
+__kernel void cell_levels(__global const uint* cells, uint count, __global const float* kappa,
+                          __global const uint* cell_flags, float threshold, __global uchar* level) {
+    if (get_global_id(0) >= count) return;
+    const uint s = cells[get_global_id(0)];
+    level[s] = ((cell_flags[s] & CELL_SPLASH) || kappa[s] >= threshold) ? 3 : 2;
 }

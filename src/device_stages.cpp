@@ -245,11 +245,17 @@ void cell_curvature_levels(OpenCLRuntime& rt, const BinnedParticles& b, Particle
     rt.run_groups("particle_curvature", (b.occupied_count + kBinsPerGroup - 1) / kBinsPerGroup, kBinGroup);
     c.gradient = DeviceBuffer{};  // normals and flags are read: freed before the buffers below
     c.flags = DeviceBuffer{};
-    DeviceBuffer raw = rt.buffer(cap * sizeof(cl_float), "unsmoothed cell curvature");
+    DeviceBuffer raw = rt.buffer(cap * sizeof(cl_float), "cell curvature, smoothing");
     set_args(rt.kernel("cell_curvature"), morton_cells, count, cells.keys, cl_ulong(cells.capacity), sum, cnt, mx, raw);
     rt.run("cell_curvature", count);
-    set_args(rt.kernel("cell_levels"), morton_cells, count, cells.keys, cl_ulong(cells.capacity), raw, cell_flags,
-             threshold, level, cell_kappa);
+    // Ping-pong between raw and cell_kappa; the smoothed curvature ends in cell_kappa.
+    for (int pass = 0; pass < constants::kCurvatureSmoothingPasses; ++pass) {
+        set_args(rt.kernel("smooth_cell_curvature"), morton_cells, count, cells.keys, cl_ulong(cells.capacity), raw,
+                 cell_kappa);
+        rt.run("smooth_cell_curvature", count);
+        if (pass + 1 < constants::kCurvatureSmoothingPasses) std::swap(raw, cell_kappa);
+    }
+    set_args(rt.kernel("cell_levels"), morton_cells, count, cell_kappa, cell_flags, threshold, level);
     rt.run("cell_levels", count);
 }
 

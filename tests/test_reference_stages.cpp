@@ -345,10 +345,10 @@ ref::SurfaceCells cells_of(const std::vector<glm::vec3>& x, glm::vec3 origin, in
 }  // namespace
 
 TEST_CASE("coarse surface cells of a block lie near its faces, symmetric, level 2 on flat faces", "[reference]") {
-    // 16^3 particles, centres at origin + (9 + 2k) r: the fluid fills coarse cells 2..9 exactly,
+    // 24^3 particles, centres at origin + (9 + 2k) r: the fluid fills coarse cells 2..13 exactly,
     // and no particle box (+- 2r) or splash box (+- R) ends on a cell boundary.
     const glm::vec3 origin(-1.0f, 2.0f, 0.5f);
-    const Block b = lattice_block({16, 16, 16}, origin + glm::vec3(9 * kR), 0.0f, 1);
+    const Block b = lattice_block({24, 24, 24}, origin + glm::vec3(9 * kR), 0.0f, 1);
     const ref::SurfaceCells cells = cells_of(b.x, origin);
     const auto keys = keys_of(cells);
     REQUIRE(keys.size() == cells.cells.size());
@@ -357,27 +357,28 @@ TEST_CASE("coarse surface cells of a block lie near its faces, symmetric, level 
     for (std::size_t c = 0; c < cells.cells.size(); ++c) {
         const glm::ivec3 q = cells.cells[c].coord;
         CHECK(glm::all(glm::greaterThanEqual(q, glm::ivec3(1))));
-        CHECK(glm::all(glm::lessThanEqual(q, glm::ivec3(10))));
-        const bool near_face = glm::any(glm::lessThanEqual(q, glm::ivec3(2))) || glm::any(glm::greaterThanEqual(q, glm::ivec3(9)));
+        CHECK(glm::all(glm::lessThanEqual(q, glm::ivec3(14))));
+        const bool near_face = glm::any(glm::lessThanEqual(q, glm::ivec3(2))) || glm::any(glm::greaterThanEqual(q, glm::ivec3(13)));
         CHECK(near_face);  // none deep inside
         CHECK_FALSE(cells.splash[c]);
         // Mirror images and axis permutations are surface cells too.
-        CHECK(keys.count(trilevel::lattice::pack(11 - q.x, q.y, q.z)) == 1);
-        CHECK(keys.count(trilevel::lattice::pack(q.x, 11 - q.y, q.z)) == 1);
-        CHECK(keys.count(trilevel::lattice::pack(q.x, q.y, 11 - q.z)) == 1);
+        CHECK(keys.count(trilevel::lattice::pack(15 - q.x, q.y, q.z)) == 1);
+        CHECK(keys.count(trilevel::lattice::pack(q.x, 15 - q.y, q.z)) == 1);
+        CHECK(keys.count(trilevel::lattice::pack(q.x, q.y, 15 - q.z)) == 1);
         CHECK(keys.count(trilevel::lattice::pack(q.y, q.z, q.x)) == 1);
-        // Flat faces, away from the block's edges (cells 5..6 on the other two axes: the 3x3x3
-        // average and the neighbour fallback of particle-free cells reach two cells): level 2.
+        // Flat faces, away from the block's edges (cells 6..9 on the other two axes: the neighbour
+        // fallback of particle-free cells and the three 3x3x3 smoothing passes reach four cells
+        // from an edge): level 2.
         int on_face = 0, interior = 0;
         for (int a = 0; a < 3; ++a) {
-            on_face += q[a] <= 2 || q[a] >= 9;
-            interior += q[a] >= 5 && q[a] <= 6;
+            on_face += q[a] <= 2 || q[a] >= 13;
+            interior += q[a] >= 6 && q[a] <= 9;
         }
         const bool face_interior = on_face == 1 && interior == 2;
         if (face_interior) { INFO("cell " << q.x << " " << q.y << " " << q.z << " curvature " << cells.curvature[c]); CHECK(int(cells.cells[c].level) == 2); }
     }
-    // Every cell of 1..10 per axis except the 6^3 inner ones (3..8): the +- 2r boxes reach one cell out.
-    CHECK(keys.size() == std::size_t(10 * 10 * 10 - 6 * 6 * 6));
+    // Every cell of 1..14 per axis except the 10^3 inner ones (3..12): the +- 2r boxes reach one cell out.
+    CHECK(keys.size() == std::size_t(14 * 14 * 14 - 10 * 10 * 10));
     // Uniform modes force the level.
     for (int forced : {2, 3})
         for (const auto& c : cells_of(b.x, origin, forced).cells) CHECK(int(c.level) == forced);

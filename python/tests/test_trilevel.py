@@ -174,7 +174,7 @@ class ReconstructTest(unittest.TestCase):
         self.assertEqual(empty, {})
 
     def test_level_hysteresis_and_reset_history(self):
-        frames = [trilevel.generate_scene("falling-drop", R, frame=f) for f in range(0, 12, 2)]
+        frames = [trilevel.generate_scene("falling-drop", R, frame=f) for f in range(0, 24, 2)]
         held = {}
         for h in (0.0, 0.2):
             rec = trilevel.Reconstructor()

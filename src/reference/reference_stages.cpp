@@ -211,15 +211,22 @@ SurfaceCells surface_cells(const std::vector<glm::vec3>& x, const ParticleFlags&
     out.cells.resize(keys.size());
     out.curvature.resize(keys.size());
     out.splash.resize(keys.size());
-    std::unordered_map<std::uint64_t, float> raw;  // eq. 3 (or the neighbour fallback) per cell
-    for (std::uint64_t k : keys) raw[k] = cell_curvature(lattice::unpack(k), per_cell);
+    std::unordered_map<std::uint64_t, float> smoothed;  // eq. 3 (or the neighbour fallback) per cell
+    for (std::uint64_t k : keys) smoothed[k] = cell_curvature(lattice::unpack(k), per_cell);
+    // Means over the surface cells of the 3x3x3 block (kernels/curvature.cl, smooth_cell_curvature).
+    for (int pass = 0; pass < constants::kCurvatureSmoothingPasses; ++pass) {
+        std::unordered_map<std::uint64_t, float> next;
+        for (std::uint64_t k : keys) {
+            double sum = 0.0;
+            int n = 0;
+            for_each_in_block(lattice::unpack(k), smoothed, [&](float v) { sum += v, ++n; });
+            next[k] = float(sum / n);
+        }
+        smoothed.swap(next);
+    }
     for (std::size_t c = 0; c < keys.size(); ++c) {
         const glm::ivec3 coord = lattice::unpack(keys[c]);
-        // Mean over the surface cells of the 3x3x3 block (kernels/curvature.cl, cell_levels).
-        double sum = 0.0;
-        int n = 0;
-        for_each_in_block(coord, raw, [&](float k) { sum += k, ++n; });
-        out.curvature[c] = float(sum / n);
+        out.curvature[c] = smoothed[keys[c]];
         out.splash[c] = splash_keys.count(keys[c]) != 0;
         const bool fine = out.splash[c] || out.curvature[c] >= threshold;
         out.cells[c].coord = coord;
