@@ -4,18 +4,6 @@
 
 #define KAPPA_FIXED 1048576.0f  /* 2^20 */
 
-// Runs BODY with `long t` = the slot of every coarse cell of the 3x3x3 block around `c` (itself
-// included) that is in the table, in z, y, x order.
-#define FOR_EACH_CELL_IN_BLOCK(c, cell_keys, cell_capacity, BODY)                      \
-    for (int dz = -1; dz <= 1; ++dz)                                               \
-        for (int dy = -1; dy <= 1; ++dy)                                           \
-            for (int dx = -1; dx <= 1; ++dx) {                                     \
-                int3 q = (c) + (int3)(dx, dy, dz);                                 \
-                if (!key_in_range(q)) continue;                                    \
-                long t = hash_find((cell_keys), (cell_capacity), pack_key(q));         \
-                if (t >= 0) BODY                                                   \
-            }
-
 inline float3 outward_normal(float3 gradient) {
     return length(gradient) > 0.0f ? -normalize(gradient) : (float3)(0.0f);
 }
@@ -161,34 +149,61 @@ __kernel void particle_curvature(__global const float4* sorted, __global const u
     }
 }
 
+#define NO_CELL 0xFFFFFFFFu
+
+// The table slot of each coarse cell of the 3x3x3 block around every listed cell, in z, y, x order
+// (NO_CELL where there is none): block[k * count + i] for block cell k of list entry i. Looked up
+// once for the passes below, which then read slots instead of probing the hash 27 times each.
+__kernel void cell_blocks(__global const uint* cells, uint count, __global const ulong* cell_keys, ulong cell_capacity,
+                          __global uint* block) {
+    const uint i = get_global_id(0);
+    if (i >= count) return;
+    const int3 c = unpack_key(cell_keys[cells[i]]);
+    uint k = 0;
+    for (int dz = -1; dz <= 1; ++dz)
+        for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx, ++k) {
+                const int3 q = c + (int3)(dx, dy, dz);
+                const long t = key_in_range(q) ? hash_find(cell_keys, cell_capacity, pack_key(q)) : -1;
+                block[k * count + i] = t < 0 ? NO_CELL : (uint)t;
+            }
+}
+
 // Paper eq. 3 per coarse cell. A cell without surface particles takes the largest curvature found
 // in its 26 neighbours (DESIGN §3.2).
-__kernel void cell_curvature(__global const uint* cells, uint count, __global const ulong* cell_keys, ulong cell_capacity,
+__kernel void cell_curvature(__global const uint* cells, uint count, __global const uint* block,
                              __global const ulong* kappa_sum, __global const uint* kappa_count,
                              __global const uint* kappa_max, __global float* cell_kappa) {
-    if (get_global_id(0) >= count) return;
-    const uint s = cells[get_global_id(0)];
-    const ulong key = cell_keys[s];
+    const uint i = get_global_id(0);
+    if (i >= count) return;
+    const uint s = cells[i];
     if (kappa_count[s] > 0) {
         cell_kappa[s] = ((float)kappa_sum[s] / KAPPA_FIXED) / (float)kappa_count[s];
         return;
     }
     uint m = 0;
-    FOR_EACH_CELL_IN_BLOCK(unpack_key(key), cell_keys, cell_capacity, { m = max(m, kappa_max[t]); })
+    for (uint k = 0; k < 27; ++k) {
+        const uint t = block[k * count + i];
+        if (t != NO_CELL) m = max(m, kappa_max[t]);
+    }
     cell_kappa[s] = as_float(m);
 }
 
 // One smoothing pass (beyond the paper): the mean of `in` over the surface cells of the 3x3x3 block
 // around each cell, summed in z, y, x order (DESIGN §6). constants::kCurvatureSmoothingPasses passes
 // keep level regions compact on noisy curvature: fewer transition faces, fewer crack patches.
-__kernel void smooth_cell_curvature(__global const uint* cells, uint count, __global const ulong* cell_keys,
-                                    ulong cell_capacity, __global const float* in, __global float* out) {
-    if (get_global_id(0) >= count) return;
-    const uint s = cells[get_global_id(0)];
-    float sum = 0.0f;
-    int n = 0;
-    FOR_EACH_CELL_IN_BLOCK(unpack_key(cell_keys[s]), cell_keys, cell_capacity, { sum += in[t]; ++n; })
-    out[s] = sum / (float)n;
+__kernel void smooth_cell_curvature(__global const uint* cells, uint count, __global const uint* block,
+                                    __global const float* in, __global float* out) {
+    const uint i = get_global_id(0);
+    if (i >= count) return;
+    float sum = 0.0f, n = 0.0f;
+    for (uint k = 0; k < 27; ++k) {
+        const uint t = block[k * count + i];
+        const float v = in[t == NO_CELL ? cells[i] : t];
+        sum += t == NO_CELL ? 0.0f : v;
+        n += t == NO_CELL ? 0.0f : 1.0f;
+    }
+    out[cells[i]] = sum / n;
 }
 
 // Level per coarse cell: 3 if a splash or thin particle is near or if its smoothed curvature reaches

@@ -218,8 +218,9 @@ namespace {
 
 /// Stage 4 on the device: per-particle curvature summed into the coarse cells, per-cell mean, levels
 /// (paper eq. 1-3). With keep_kappa the per-particle curvature is also written to `kappa`. The
-/// per-cell passes take the `count` slots of `morton_cells`: each looks up its 3x3x3 block, which
-/// then mostly hits the cache (x512: 620 k cells in 2.1 M slots, scattered by the hash).
+/// per-cell passes take the `count` slots of `morton_cells`; cell_blocks looks up each one's 3x3x3
+/// block once, in that order, so the probes mostly hit the cache (x512: 620 k cells in 2.1 M slots,
+/// scattered by the hash), and the curvature passes read the 27 slots it wrote (108 bytes a cell).
 void cell_curvature_levels(OpenCLRuntime& rt, const BinnedParticles& b, ParticleClasses& c,
                            const DeviceHash& cells, const cl::Buffer& morton_cells, cl_uint count,
                            const cl::Buffer& cell_flags, float R, float inv_coarse, float threshold,
@@ -245,13 +246,15 @@ void cell_curvature_levels(OpenCLRuntime& rt, const BinnedParticles& b, Particle
     rt.run_groups("particle_curvature", (b.occupied_count + kBinsPerGroup - 1) / kBinsPerGroup, kBinGroup);
     c.gradient = DeviceBuffer{};  // normals and flags are read: freed before the buffers below
     c.flags = DeviceBuffer{};
+    DeviceBuffer block = rt.buffer(std::size_t(count) * 27 * sizeof(cl_uint), "coarse cell blocks");
+    set_args(rt.kernel("cell_blocks"), morton_cells, count, cells.keys, cl_ulong(cells.capacity), block);
+    rt.run("cell_blocks", count);
     DeviceBuffer raw = rt.buffer(cap * sizeof(cl_float), "cell curvature, smoothing");
-    set_args(rt.kernel("cell_curvature"), morton_cells, count, cells.keys, cl_ulong(cells.capacity), sum, cnt, mx, raw);
+    set_args(rt.kernel("cell_curvature"), morton_cells, count, block, sum, cnt, mx, raw);
     rt.run("cell_curvature", count);
     // Ping-pong between raw and cell_kappa; the smoothed curvature ends in cell_kappa.
     for (int pass = 0; pass < constants::kCurvatureSmoothingPasses; ++pass) {
-        set_args(rt.kernel("smooth_cell_curvature"), morton_cells, count, cells.keys, cl_ulong(cells.capacity), raw,
-                 cell_kappa);
+        set_args(rt.kernel("smooth_cell_curvature"), morton_cells, count, block, raw, cell_kappa);
         rt.run("smooth_cell_curvature", count);
         if (pass + 1 < constants::kCurvatureSmoothingPasses) std::swap(raw, cell_kappa);
     }
