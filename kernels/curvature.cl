@@ -36,6 +36,39 @@ inline void gather_normals(int3 blo, int3 bhi, __global const float* normals, __
     barrier(CLK_LOCAL_MEM_FENCE);
 }
 
+// CPU devices (SERIAL_GATHER): the surface candidates of bins blo..bhi only, positions to `cand`
+// and normals (w = 1) to `dst`, in the order gather_candidates lists them, by work-item 0. Only
+// surface neighbours add to eq. 1, so the sums are those of the full list, bit for bit, over fewer
+// candidates (about a third of them on the dam-break frames). Returns their number, or
+// MAX_CANDIDATES + 1 when they do not fit (global-memory fallback).
+inline uint gather_surface_candidates(int3 blo, int3 bhi, __global const float4* sorted, __global const float* normals,
+                                      __global const uchar* flags, __global const ulong* bin_keys, ulong bin_capacity,
+                                      __global const uint2* range, __local float4* cand, __local float4* dst,
+                                      __local uint* count) {
+    if (get_local_id(0) == 0) {
+        uint total = 0;
+        for (int z = blo.z; z <= bhi.z; ++z)
+            for (int y = blo.y; y <= bhi.y; ++y)
+                for (int x = blo.x; x <= bhi.x; ++x) {
+                    const int3 q = (int3)(x, y, z);
+                    const long s = key_in_range(q) ? hash_find(bin_keys, bin_capacity, pack_key(q)) : -1;
+                    if (s < 0) continue;
+                    const uint2 rg = range[s];
+                    for (uint j = rg.x; j < rg.x + rg.y; ++j) {
+                        if (!(flags[j] & FLAG_SURFACE)) continue;
+                        if (total < MAX_CANDIDATES) {
+                            cand[total] = sorted[j];
+                            dst[total] = (float4)(vload3(j, normals), 1.0f);
+                        }
+                        ++total;
+                    }
+                }
+        *count = total <= MAX_CANDIDATES ? total : MAX_CANDIDATES + 1;
+    }
+    barrier(CLK_LOCAL_MEM_FENCE);
+    return *count;
+}
+
 // Paper eq. 1-2 for surface particle i over the 27 bins around it in global memory (bins whose
 // candidates do not fit in local memory).
 inline float curvature_global(uint i, __global const float4* sorted, __global const uchar* flags, float inv_cell,
@@ -101,8 +134,10 @@ __kernel void particle_curvature(__global const float4* sorted, __global const u
             continue;
         }
         const int3 bin = cell_of(sorted[own.x], inv_cell);
-        const uint n_cand = gather_candidates(bin - 1, bin + 1, sorted, bin_keys, bin_capacity, range, cand, bin_first,
-                                              bin_slot, count);
+        const uint n_cand = SERIAL_GATHER ? gather_surface_candidates(bin - 1, bin + 1, sorted, normals, flags, bin_keys,
+                                                                      bin_capacity, range, cand, cand_normal, count)
+                                          : gather_candidates(bin - 1, bin + 1, sorted, bin_keys, bin_capacity, range,
+                                                              cand, bin_first, bin_slot, count);
         if (n_cand > MAX_CANDIDATES) {
             for (uint k = lid; k < own.y; k += lsize) {
                 const uint i = own.x + k;
@@ -114,7 +149,7 @@ __kernel void particle_curvature(__global const float4* sorted, __global const u
             }
             continue;
         }
-        gather_normals(bin - 1, bin + 1, normals, flags, range, cand_normal, bin_first, bin_slot);
+        if (!SERIAL_GATHER) gather_normals(bin - 1, bin + 1, normals, flags, range, cand_normal, bin_first, bin_slot);
         for (uint first = lid * 8; first < own.y; first += lsize * 8) {
             float px[8], py[8], pz[8], nx[8], ny[8], nz[8];
             uint ids[8];
