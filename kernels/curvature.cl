@@ -16,8 +16,8 @@ __kernel void particle_normals(__global float* gradient_to_normal, uint n) {
     if (i < n) vstore3(outward_normal(vload3(i, gradient_to_normal)), i, gradient_to_normal);
 }
 
-// After gather_candidates: the candidates' normals, in the same order, with w = 1 for surface
-// particles and 0 for the others.
+// After gather_candidates (devices other than CPUs; those use gather_surface_candidates): the
+// candidates' normals, in the same order, with w = 1 for surface particles and 0 for the others.
 inline void gather_normals(int3 blo, int3 bhi, __global const float* normals, __global const uchar* flags,
                            __global const uint2* range, __local float4* dst, __local const uint* bin_first,
                            __local const uint* bin_slot) {
@@ -234,7 +234,7 @@ __kernel void smooth_cell_curvature(__global const uint* cells, uint count, __gl
     float sum = 0.0f, n = 0.0f;
     for (uint k = 0; k < 27; ++k) {
         const uint t = block[k * count + i];
-        const float v = in[t == NO_CELL ? cells[i] : t];
+        const float v = in[t == NO_CELL ? cells[i] : t];  // branch-free: a missing cell adds +0
         sum += t == NO_CELL ? 0.0f : v;
         n += t == NO_CELL ? 0.0f : 1.0f;
     }
