@@ -250,6 +250,12 @@ private:
     }
 };
 
+// Frees a vector's storage (`v = {}` would keep its capacity: it assigns an empty list).
+template <class T>
+void release(std::vector<T>& v) {
+    std::vector<T>().swap(v);
+}
+
 // Phase 2, in chunk order: number vertices by first appearance in the canonical stream (DESIGN §6);
 // only vertices on a cell boundary can repeat, so only they go through the index. A vertex made
 // by any level-2 cube is level 2.
@@ -267,10 +273,10 @@ void number_chunk(ChunkOut& c, VertexIndex& index, std::vector<std::uint32_t>& i
         }
         ids[v] = id;
     }
-    c.keys = {};  // release what the remaining phase does not read
-    c.positions = {};
-    c.level = {};
-    c.shared = {};
+    release(c.keys);  // what the remaining phase does not read
+    release(c.positions);
+    release(c.level);
+    release(c.shared);
 }
 
 }  // namespace
@@ -318,7 +324,7 @@ Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame&
             for (std::size_t i = 0; i < c.triangles.size(); ++i) t[i] = ids[ci][c.triangles[i]];
             std::copy(c.kinds.begin(), c.kinds.end(), mesh.triangle_kind.begin() + std::ptrdiff_t(tri_offset[ci]));
             c = ChunkOut{};  // copied: freed while the others are
-            ids[ci] = {};
+            release(ids[ci]);
         }
     });
     return mesh;
