@@ -14,10 +14,10 @@
 
 // Colour-field gradient and neighbour count of particle i over the 27 bins around it in global
 // memory: for bins whose candidates do not fit in local memory.
-inline void color_field_global(uint i, __global const float4* sorted, float inv_cell, __global const ulong* bin_keys,
+inline void color_field_global(uint i, __global const float* sorted, float inv_cell, __global const ulong* bin_keys,
                                ulong bin_capacity, __global const uint2* range, float R2, float grad_norm,
                                float3* g_out, int* n_out) {
-    const float4 xi = sorted[i];
+    const float4 xi = candidate(sorted, i);
     const float same2 = R2 * (SAME_SPOT * SAME_SPOT);
     float3 g = (float3)(0.0f);
     int neighbours = 0;
@@ -47,7 +47,7 @@ inline uchar particle_flags(float3 g, int neighbours, float R) {
 // gathered once into local memory (gather_candidates). A work-item takes 8 particles at once, one
 // per vector lane; each lane adds its neighbours in candidate order, so a particle's result does
 // not depend on its lane. Bins whose candidates do not fit use color_field_global.
-__kernel void color_field(__global const float4* sorted, __global const uint* occupied, uint occupied_count,
+__kernel void color_field(__global const float* sorted, __global const uint* occupied, uint occupied_count,
                           uint per_group, float inv_cell,
                           __global const ulong* bin_keys, ulong bin_capacity, __global const uint2* range, float R,
                           float volume, __global float* gradient, __global uchar* flags, __local float4* cand,
@@ -59,7 +59,7 @@ __kernel void color_field(__global const float4* sorted, __global const uint* oc
     for (uint ob = first_bin; ob < min(first_bin + per_group, occupied_count); ++ob) {
         barrier(CLK_LOCAL_MEM_FENCE);  // the previous bin is done with the candidates
         const uint2 own = range[occupied[ob]];
-        const int3 bin = cell_of(sorted[own.x], inv_cell);
+        const int3 bin = cell_of(vload3(own.x, sorted), inv_cell);
         const uint n_cand = gather_candidates(bin - 1, bin + 1, sorted, bin_keys, bin_capacity, range, cand, bin_first,
                                               bin_slot, count);
         if (n_cand > MAX_CANDIDATES) {
@@ -77,7 +77,7 @@ __kernel void color_field(__global const float4* sorted, __global const uint* oc
             uint ids[8];
             for (int l = 0; l < 8; ++l) {  // spare lanes repeat the last particle
                 const uint i = own.x + min(first + l, own.y - 1);
-                const float4 x = sorted[i];
+                const float3 x = vload3(i, sorted);
                 px[l] = x.x; py[l] = x.y; pz[l] = x.z; ids[l] = i;
             }
             const float8 X = vload8(0, px), Y = vload8(0, py), Z = vload8(0, pz);

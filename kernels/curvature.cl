@@ -41,7 +41,7 @@ inline void gather_normals(int3 blo, int3 bhi, __global const float* normals, __
 // surface neighbours add to eq. 1, so the sums are those of the full list, bit for bit, over fewer
 // candidates (about a third of them on the dam-break frames). Returns their number, or
 // MAX_CANDIDATES + 1 when they do not fit (global-memory fallback).
-inline uint gather_surface_candidates(int3 blo, int3 bhi, __global const float4* sorted, __global const float* normals,
+inline uint gather_surface_candidates(int3 blo, int3 bhi, __global const float* sorted, __global const float* normals,
                                       __global const uchar* flags, __global const ulong* bin_keys, ulong bin_capacity,
                                       __global const uint2* range, __local float4* cand, __local float4* dst,
                                       __local uint* count) {
@@ -57,7 +57,7 @@ inline uint gather_surface_candidates(int3 blo, int3 bhi, __global const float4*
                     for (uint j = rg.x; j < rg.x + rg.y; ++j) {
                         if (!(flags[j] & FLAG_SURFACE)) continue;
                         if (total < MAX_CANDIDATES) {
-                            cand[total] = sorted[j];
+                            cand[total] = candidate(sorted, j);
                             dst[total] = (float4)(vload3(j, normals), 1.0f);
                         }
                         ++total;
@@ -71,10 +71,10 @@ inline uint gather_surface_candidates(int3 blo, int3 bhi, __global const float4*
 
 // Paper eq. 1-2 for surface particle i over the 27 bins around it in global memory (bins whose
 // candidates do not fit in local memory).
-inline float curvature_global(uint i, __global const float4* sorted, __global const uchar* flags, float inv_cell,
+inline float curvature_global(uint i, __global const float* sorted, __global const uchar* flags, float inv_cell,
                               __global const ulong* bin_keys, ulong bin_capacity, __global const uint2* range,
                               __global const float* normals, float R) {
-    const float4 xi = sorted[i];
+    const float4 xi = candidate(sorted, i);
     const float3 ni = vload3(i, normals);
     float kap = 0.0f;
     FOR_EACH_NEIGHBOUR_BIN(xi, inv_cell, bin_keys, bin_capacity, range, sorted, {
@@ -104,7 +104,7 @@ inline void add_to_cell(float3 x, float kap, float inv_coarse, __global const ul
 #define CURVATURE_RESULT(i, kap)                                                                          \
     {                                                                                                     \
         if (flags[i] & FLAG_SURFACE)                                                                      \
-            add_to_cell(sorted[i].xyz, (kap), inv_coarse, cell_keys, cell_capacity, kappa_sum, kappa_count, \
+            add_to_cell(vload3(i, sorted), (kap), inv_coarse, cell_keys, cell_capacity, kappa_sum, kappa_count, \
                         kappa_max);                                                                       \
         if (keep_kappa) kappa[i] = (kap);                                                                 \
     }
@@ -113,7 +113,7 @@ inline void add_to_cell(float3 x, float kap, float inv_coarse, __global const ul
 // the surface neighbours j. Work-groups take bins in turn with candidates (positions and
 // normals) in local memory; a work-item takes 8 particles at once, one per vector lane, each
 // adding its neighbours in candidate order (as in color_field).
-__kernel void particle_curvature(__global const float4* sorted, __global const uchar* flags,
+__kernel void particle_curvature(__global const float* sorted, __global const uchar* flags,
                                  __global const uint* occupied, uint occupied_count, uint per_group, float inv_cell,
                                  __global const ulong* bin_keys, ulong bin_capacity, __global const uint2* range,
                                  __global const float* normals, float R, uint keep_kappa,
@@ -133,7 +133,7 @@ __kernel void particle_curvature(__global const float4* sorted, __global const u
             for (uint k = lid; keep_kappa && k < own.y; k += lsize) kappa[own.x + k] = 0.0f;
             continue;
         }
-        const int3 bin = cell_of(sorted[own.x], inv_cell);
+        const int3 bin = cell_of(vload3(own.x, sorted), inv_cell);
         const uint n_cand = SERIAL_GATHER ? gather_surface_candidates(bin - 1, bin + 1, sorted, normals, flags, bin_keys,
                                                                       bin_capacity, range, cand, cand_normal, count)
                                           : gather_candidates(bin - 1, bin + 1, sorted, bin_keys, bin_capacity, range,
@@ -155,7 +155,7 @@ __kernel void particle_curvature(__global const float4* sorted, __global const u
             uint ids[8];
             for (int l = 0; l < 8; ++l) {  // spare lanes repeat the last particle
                 const uint i = own.x + min(first + l, own.y - 1);
-                const float4 x = sorted[i];
+                const float3 x = vload3(i, sorted);
                 const float3 n = vload3(i, normals);
                 px[l] = x.x; py[l] = x.y; pz[l] = x.z; nx[l] = n.x; ny[l] = n.y; nz[l] = n.z; ids[l] = i;
             }

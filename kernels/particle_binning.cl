@@ -5,8 +5,13 @@
 // count -> (host) exclusive scan -> scatter -> sort each bucket by particle index, so every
 // neighbour sum later runs in the same order whatever the thread count (DESIGN §6).
 
-inline int3 cell_of(float4 p, float inv_cell) {
-    return convert_int3_rtn(p.xyz * inv_cell);
+inline int3 cell_of(float3 p, float inv_cell) {
+    return convert_int3_rtn(p * inv_cell);
+}
+
+// Sorted particle j as a candidate: its position, and its sorted index in w (self-exclusion).
+inline float4 candidate(__global const float* sorted, uint j) {
+    return (float4)(vload3(j, sorted), as_float(j));
 }
 
 // `pos`: the input positions as packed xyz triples (3 floats a particle: at x512 a float4 array
@@ -16,7 +21,7 @@ __kernel void bin_insert(__global const float* pos, uint n, float inv_cell,
                          volatile __global int* stats) {
     uint i = get_global_id(0);
     if (i >= n) return;
-    const int3 c = cell_of((float4)(vload3(i, pos), 0.0f), inv_cell);
+    const int3 c = cell_of(vload3(i, pos), inv_cell);
     slot_of[i] = (int)hash_insert_counted(keys, capacity, pack_key(c), stats);
 }
 
@@ -47,19 +52,19 @@ __kernel void bin_sort_buckets(__global const uint2* range, ulong capacity, __gl
     }
 }
 
-// w of each sorted position holds its own sorted index (as bits), so gathered candidate lists
-// still know which particle they are.
-__kernel void bin_gather(__global const uint* order, uint n, __global const float* pos, __global float4* sorted) {
+// Positions in bin order, packed xyz like the input (3 floats a particle: at x512 a float4 array
+// would be 71 MB more); `candidate` adds the index when a gather copies one.
+__kernel void bin_gather(__global const uint* order, uint n, __global const float* pos, __global float* sorted) {
     uint i = get_global_id(0);
     if (i >= n) return;
-    sorted[i] = (float4)(vload3(order[i], pos), as_float(i));
+    vstore3(vload3(order[i], pos), i, sorted);
 }
 
 // Neighbour loop over the 27 bins around `x`; used by every particle and grid-point stage.
 // BODY sees `float4 pj` and `uint j` (index into sorted arrays).
 #define FOR_EACH_NEIGHBOUR_BIN(X_, INV_CELL_, KEYS_, CAPACITY_, RANGE_, SORTED_, BODY)              \
     {                                                                                                  \
-        int3 c0_ = cell_of((X_), (INV_CELL_));                                                 \
+        int3 c0_ = cell_of((X_).xyz, (INV_CELL_));                                               \
         for (int dz_ = -1; dz_ <= 1; ++dz_)                                                            \
             for (int dy_ = -1; dy_ <= 1; ++dy_)                                                        \
                 for (int dx_ = -1; dx_ <= 1; ++dx_) {                                                  \
@@ -69,7 +74,7 @@ __kernel void bin_gather(__global const uint* order, uint n, __global const floa
                     if (s_ < 0) continue;                                                              \
                     uint2 r_ = (RANGE_)[s_];                                                            \
                     for (uint j = r_.x; j < r_.x + r_.y; ++j) {                                        \
-                        float4 pj = (SORTED_)[j];                                                       \
+                        float4 pj = candidate((SORTED_), j);                                                       \
                         BODY                                                                           \
                     }                                                                                  \
                 }                                                                                      \
@@ -85,7 +90,7 @@ __kernel void bin_gather(__global const uint* order, uint n, __global const floa
 // MAX_CANDIDATES comes from the host (OpenCLRuntime::max_candidates): as many as two float4 lists
 // of them fit the device's local memory, at most 2048.
 #define MAX_BINS 64
-inline uint gather_candidates(int3 blo, int3 bhi, __global const float4* sorted, __global const ulong* bin_keys,
+inline uint gather_candidates(int3 blo, int3 bhi, __global const float* sorted, __global const ulong* bin_keys,
                               ulong bin_capacity, __global const uint2* range, __local float4* cand,
                               __local uint* bin_first, __local uint* bin_slot, __local uint* count) {
     const uint lid = get_local_id(0), lsize = get_local_size(0);
@@ -101,7 +106,7 @@ inline uint gather_candidates(int3 blo, int3 bhi, __global const float4* sorted,
             if (s < 0) continue;
             const uint2 rg = range[s];
             if (SERIAL_GATHER && total + rg.y <= MAX_CANDIDATES)
-                for (uint k = 0; k < rg.y; ++k) cand[total + k] = sorted[rg.x + k];
+                for (uint k = 0; k < rg.y; ++k) cand[total + k] = candidate(sorted, rg.x + k);
             total += rg.y;
         }
         *count = (nbins <= MAX_BINS && total <= MAX_CANDIDATES) ? total : MAX_CANDIDATES + 1;
@@ -112,7 +117,7 @@ inline uint gather_candidates(int3 blo, int3 bhi, __global const float4* sorted,
         for (int b = 0; b < nbins; ++b) {
             if ((int)bin_slot[b] < 0) continue;
             uint2 rg = range[bin_slot[b]];
-            for (uint k = lid; k < rg.y; k += lsize) cand[bin_first[b] + k] = sorted[rg.x + k];
+            for (uint k = lid; k < rg.y; k += lsize) cand[bin_first[b] + k] = candidate(sorted, rg.x + k);
         }
     barrier(CLK_LOCAL_MEM_FENCE);
     return n;

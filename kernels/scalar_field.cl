@@ -95,7 +95,7 @@ inline float solenthaler_phi(float K, float3 S, float3 G, float3 A0, float3 A1, 
 }
 
 __kernel void scalar_field(__global const uint* pending, uint count, __global const ulong* keys,
-                           __global float* values, float step, __global const float4* sorted, float inv_cell,
+                           __global float* values, float step, __global const float* sorted, float inv_cell,
                            __global const ulong* bin_keys, ulong bin_capacity, __global const uint2* range,
                            float r, float R) {
     uint i = get_global_id(0);
@@ -171,7 +171,7 @@ inline uint near_candidates(float8 X, float8 Y, float8 Z, __local const float4* 
 
 __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, int claim,
                                  volatile __global ulong* keys, ulong capacity,
-                                 volatile __global uint* value_bits, float step, __global const float4* sorted,
+                                 volatile __global uint* value_bits, float step, __global const float* sorted,
                                  float inv_cell, __global const ulong* bin_keys, ulong bin_capacity,
                                  __global const uint2* range, float r, float R, volatile __global int* overflow,
                                  __local float4* cand, __local uint* bin_first, __local uint* bin_slot,

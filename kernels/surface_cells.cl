@@ -9,27 +9,27 @@ inline int3 coarse_of(float3 p, float inv_coarse) {
     return convert_int3_rtn(p * inv_coarse);
 }
 
-__kernel void mark_surface_cells(__global const float4* sorted, __global const uchar* flags, uint n,
+__kernel void mark_surface_cells(__global const float* sorted, __global const uchar* flags, uint n,
                                  float inv_coarse, float half_box,
                                  volatile __global ulong* cell_keys, ulong cell_capacity,
                                  volatile __global int* stats) {
     uint i = get_global_id(0);
     if (i >= n || flags[i] == 0) return;
-    int3 lo = coarse_of(sorted[i].xyz - half_box, inv_coarse);
-    int3 hi = coarse_of(sorted[i].xyz + half_box, inv_coarse);
+    int3 lo = coarse_of(vload3(i, sorted) - half_box, inv_coarse);
+    int3 hi = coarse_of(vload3(i, sorted) + half_box, inv_coarse);
     for (int z = lo.z; z <= hi.z; ++z)
         for (int y = lo.y; y <= hi.y; ++y)
             for (int x = lo.x; x <= hi.x; ++x)
                 hash_insert_counted(cell_keys, cell_capacity, pack_key((int3)(x, y, z)), stats);
 }
 
-__kernel void mark_splash_cells(__global const float4* sorted, __global const uchar* flags, uint n,
+__kernel void mark_splash_cells(__global const float* sorted, __global const uchar* flags, uint n,
                                 float inv_coarse, float half_box, __global const ulong* cell_keys,
                                 ulong cell_capacity, volatile __global uint* cell_flags) {
     uint i = get_global_id(0);
     if (i >= n || (flags[i] & (FLAG_SPLASH | FLAG_THIN)) == 0) return;
-    int3 lo = coarse_of(sorted[i].xyz - half_box, inv_coarse);
-    int3 hi = coarse_of(sorted[i].xyz + half_box, inv_coarse);
+    int3 lo = coarse_of(vload3(i, sorted) - half_box, inv_coarse);
+    int3 hi = coarse_of(vload3(i, sorted) + half_box, inv_coarse);
     for (int z = lo.z; z <= hi.z; ++z)
         for (int y = lo.y; y <= hi.y; ++y)
             for (int x = lo.x; x <= hi.x; ++x) {

@@ -190,7 +190,7 @@ BinnedParticles bin_particles(OpenCLRuntime& rt, const float* xyz, std::size_t p
     count = DeviceBuffer{};
     set_args(rt.kernel("bin_sort_buckets"), b.range, cl_ulong(cap), b.order);
     rt.run("bin_sort_buckets", cap);
-    b.sorted = rt.buffer(n * sizeof(cl_float4), "sorted positions");
+    b.sorted = rt.buffer(n * 3 * sizeof(cl_float), "sorted positions");
     set_args(rt.kernel("bin_gather"), b.order, n, pos, b.sorted);
     rt.run("bin_gather", n);
     rt.finish();

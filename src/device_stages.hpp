@@ -27,7 +27,7 @@ struct DeviceHash {
 struct BinnedParticles {
     std::size_t count = 0;
     float cell = 0.0f;      ///< bin edge (the kernel radius R)
-    DeviceBuffer sorted;      ///< float4 positions in bin order
+    DeviceBuffer sorted;      ///< positions in bin order, packed xyz (3 floats a particle)
     DeviceBuffer order;       ///< uint: sorted index -> input index (the pipeline drops it after binning)
     DeviceHash bins;        ///< occupied bins
     DeviceBuffer range;       ///< uint2 per bin slot: first sorted index, count

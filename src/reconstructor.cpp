@@ -492,9 +492,7 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
         count_points(field, s);
 
         rt.set_stage("triangulation");
-        // Vertices and triangles are a fraction of the fine points (< 1 vertex and < 2 triangles per
-        // point on every scene measured); 40 bytes per point bounds the mesh and its edge maps.
-        check_host(double(s.fine_points) * 40, host, "the mesh of " + std::to_string(s.fine_points) + " fine points");
+        check_host(double(s.fine_points) * constants::kMeshBytesPerFinePoint, host, "the mesh of " + std::to_string(s.fine_points) + " fine points");
         mesh = triangulate_cells(cells, g.frame, field);
         field = FinePointMap();
         unmap_fine_points(rt, points);

@@ -64,6 +64,11 @@ constexpr float kSplashBoxHalf = 2.0f;
 constexpr int kCurvatureSmoothingPasses = 3;
 static_assert(kCurvatureSmoothingPasses >= 1, "the last pass writes the cell curvature the levels read");
 
+/// Host bytes the triangulation may take per fine point, checked against the memory budget before
+/// it runs: vertices and triangles are a fraction of the fine points (< 1 vertex and < 2 triangles
+/// per point on every scene measured); 40 bytes a point bound the mesh and its edge maps.
+constexpr double kMeshBytesPerFinePoint = 40.0;
+
 /// Calibrated default of the curvature threshold (README, "Choosing the threshold").
 constexpr float kDefaultCurvatureThreshold = 4.0f;
 

@@ -13,6 +13,7 @@
 
 using namespace trilevel;
 
+using trilevel::test::frame_memory_need;
 using trilevel::test::same_mesh;
 
 namespace {
@@ -176,7 +177,7 @@ TEST_CASE("a first frame holds only its loans, and from the second on a Reconstr
     CHECK(same_mesh(m1, m3));
 }
 
-TEST_CASE("a frame's device buffers fit a memory limit of its own device_memory_bytes after larger frames", "[pool][memory]") {
+TEST_CASE("a frame fits a memory limit of its own need (device buffers, mesh estimate) after larger frames", "[pool][memory]") {
     const float r = 0.025f;
     const ParticleSet big = generate_scene("dam-break", r, 4), small = generate_scene("sphere", r, 4);
     Stats need;
@@ -189,7 +190,7 @@ TEST_CASE("a frame's device buffers fit a memory limit of its own device_memory_
     rec.reset_history();
     REQUIRE_THROWS_WITH(rec.reconstruct(small.positions.data(), small.size(), limited), Catch::Contains("over the budget"));
     rec.reconstruct(big.positions.data(), big.size(), with_radius(r));
-    limited.memory_limit_bytes = need.device_memory_bytes;
+    limited.memory_limit_bytes = frame_memory_need(need);
     rec.reset_history();
     Stats st;
     REQUIRE(same_mesh(rec.reconstruct(small.positions.data(), small.size(), limited, &st), expected));
@@ -211,7 +212,7 @@ TEST_CASE("every memory limit below a frame's need stops it cleanly, wherever th
         REQUIRE_THROWS_WITH(rec.reconstruct(s.positions.data(), s.size(), p), Catch::Contains("over the budget"));
     }
     Params p = with_radius(r);
-    p.memory_limit_bytes = need.device_memory_bytes;
+    p.memory_limit_bytes = frame_memory_need(need);
     rec.reset_history();
     REQUIRE(same_mesh(rec.reconstruct(s.positions.data(), s.size(), p), expected));
 }

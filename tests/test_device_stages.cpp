@@ -156,12 +156,12 @@ TEST_CASE("binning is a stable counting sort", "[device][binning]") {
     auto x = test_particles(r, 3);
     BinnedParticles b = bin_particles(rt, &x[0].x, x.size(), glm::dvec3(0.0), R);
     auto order = read_buffer<cl_uint>(rt, b.order, x.size());
-    auto sorted = read_buffer<cl_float4>(rt, b.sorted, x.size());
+    auto sorted = read_buffer<glm::vec3>(rt, b.sorted, x.size());
     std::vector<cl_uint> perm(order);
     std::sort(perm.begin(), perm.end());
     for (std::size_t i = 0; i < perm.size(); ++i) REQUIRE(perm[i] == i);
-    auto cell = [&](std::size_t s) { return glm::ivec3(glm::floor(glm::vec3(sorted[s].s[0], sorted[s].s[1], sorted[s].s[2]) / R)); };
-    for (std::size_t s = 0; s < x.size(); ++s) REQUIRE(sorted[s].s[0] == x[order[s]].x);
+    auto cell = [&](std::size_t s) { return glm::ivec3(glm::floor(sorted[s] / R)); };
+    for (std::size_t s = 0; s < x.size(); ++s) REQUIRE(sorted[s] == x[order[s]]);
     for (std::size_t s = 1; s < x.size(); ++s)
         if (cell(s) == cell(s - 1)) REQUIRE(order[s] > order[s - 1]);  // index order inside a bin
     std::set<std::uint64_t> seen;  // each bin is one contiguous run

@@ -19,6 +19,7 @@
 using namespace trilevel;
 
 using trilevel::test::require_closed;
+using trilevel::test::frame_memory_need;
 using trilevel::test::same_mesh;
 using trilevel::test::settled_unpooled_buffers;
 
@@ -294,6 +295,6 @@ TEST_CASE("a growing fine-point table past the memory budget is an error naming 
                             Catch::Contains("over the budget") && Catch::Contains("use a larger cell or a smaller domain"));
     }
     Params enough = with_radius(r);
-    enough.memory_limit_bytes = st.device_memory_bytes;
+    enough.memory_limit_bytes = frame_memory_need(st);
     REQUIRE(same_mesh(rec.reconstruct(s.positions.data(), s.size(), enough), m));
 }

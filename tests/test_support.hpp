@@ -1,6 +1,8 @@
 // Helpers shared by the tests: where ../shared is, temporary files.
 #pragma once
 
+#include <algorithm>
+#include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <string>
@@ -10,6 +12,7 @@
 
 #include <catch2/catch.hpp>
 
+#include "stage_constants.hpp"
 #include "trilevel/trilevel.hpp"
 
 namespace trilevel::test {
@@ -28,6 +31,12 @@ inline std::filesystem::path shared_data_dir() {
     }
 
 /// The same floats bit for bit (NaN payloads and the sign of zero included).
+/// The smallest Params::memory_limit_bytes a frame that reported `st` runs under: its device
+/// buffers (Stats::device_memory_bytes) and the triangulation's host estimate both fit.
+inline std::uint64_t frame_memory_need(const Stats& st) {
+    return std::max(st.device_memory_bytes, std::uint64_t(double(st.fine_points) * constants::kMeshBytesPerFinePoint));
+}
+
 inline bool same_bits(const std::vector<float>& a, const std::vector<float>& b) {
     return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0);
 }
