@@ -231,14 +231,15 @@ __kernel void smooth_cell_curvature(__global const uint* cells, uint count, __gl
                                     __global const float* in, __global float* out) {
     const uint i = get_global_id(0);
     if (i >= count) return;
+    const uint s = cells[i];
     float sum = 0.0f, n = 0.0f;
     for (uint k = 0; k < 27; ++k) {
         const uint t = block[k * count + i];
-        const float v = in[t == NO_CELL ? cells[i] : t];  // branch-free: a missing cell adds +0
+        const float v = in[t == NO_CELL ? s : t];  // branch-free: a missing cell adds +0
         sum += t == NO_CELL ? 0.0f : v;
         n += t == NO_CELL ? 0.0f : 1.0f;
     }
-    out[cells[i]] = sum / n;
+    out[s] = sum / n;
 }
 
 // Level per coarse cell: 3 if a splash or thin particle is near or if its smoothed curvature reaches
