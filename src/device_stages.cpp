@@ -343,6 +343,11 @@ std::size_t estimate_points(const std::vector<CoarseCell>& cells, int coarse_ste
     return total;
 }
 
+/// Slots that hold `keys` fine points at FinePoints::kTargetLoad.
+std::size_t fine_capacity_for(std::size_t keys) {
+    return std::size_t(double(keys) / FinePoints::kTargetLoad) + 1;
+}
+
 void grow_fine_points(OpenCLRuntime& rt, FinePoints& p, std::size_t capacity) {
     // Host-accessible, so that mapping the table for the host stages costs no copy on CPU devices.
     constexpr cl_mem_flags kShared = CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR;
@@ -358,11 +363,11 @@ void grow_fine_points(OpenCLRuntime& rt, FinePoints& p, std::size_t capacity) {
     p.values = std::move(values);
 }
 
-/// Grows the table to load 1/2 when `keys` points would pass FinePoints::kMaxLoad of it. The
-/// table is sized to what it holds, not to a power of two (x64: 6.8 M slots for 3.4 M points, not
-/// 8.4 M).
+/// Grows the table to FinePoints::kTargetLoad when `keys` points would pass FinePoints::kMaxLoad
+/// of it. The table is sized to what it holds, not to a power of two (x64: 4.6 M slots for 3.2 M
+/// points, not 8.4 M).
 void ensure_fine_room(OpenCLRuntime& rt, FinePoints& p, std::size_t keys) {
-    if (double(keys) > FinePoints::kMaxLoad * double(p.hash.capacity)) grow_fine_points(rt, p, keys * 2);
+    if (double(keys) > FinePoints::kMaxLoad * double(p.hash.capacity)) grow_fine_points(rt, p, fine_capacity_for(keys));
 }
 
 /// After an insert pass into the fine-point table: records its count, and grows the table when
@@ -372,7 +377,7 @@ bool grew_after_insert(OpenCLRuntime& rt, FinePoints& p) {
     const HashCounters c = read_counters(rt, p.hash);
     p.inserted = c.inserted;
     if (!needs_growth(c, p.hash, FinePoints::kMaxLoad)) return false;
-    grow_fine_points(rt, p, grown_capacity(p.hash, c));
+    grow_fine_points(rt, p, std::max(p.hash.capacity * 2, fine_capacity_for(c.inserted)));
     return true;
 }
 
