@@ -8,6 +8,7 @@
 #include <sstream>
 #include <string_view>
 
+#include "program_cache.hpp"
 #include "stage_constants.hpp"
 
 namespace trilevel {
@@ -158,15 +159,37 @@ bool OpenCLRuntime::serial_gather() const {
 void OpenCLRuntime::build_program() {
     std::string source;
     for (const char* f : kKernelFiles) source += std::string(embedded_kernel_source(f)) + "\n";
+    const std::string options = build_options(max_candidates_, serial_gather());
+    // The cached binary of exactly this source, these options and this device and driver, if any
+    // (program_cache.hpp); one the driver rejects is rebuilt from source and replaced.
+    const std::string dir = program_cache_dir();
+    std::string name, path;
+    if (!dir.empty()) {
+        const cl::Platform platform(device_.getInfo<CL_DEVICE_PLATFORM>());
+        name = program_cache_name({source, options, info_.name, device_.getInfo<CL_DEVICE_VERSION>(),
+                                   device_.getInfo<CL_DRIVER_VERSION>(), platform.getInfo<CL_PLATFORM_NAME>(),
+                                   platform.getInfo<CL_PLATFORM_VERSION>()});
+        path = dir + "/" + name + ".clbin";
+        if (auto binary = load_program_binary(path, name)) try {
+                program_ = cl::Program(context_, {device_}, cl::Program::Binaries{std::move(*binary)});
+                program_.build(std::vector<cl::Device>{device_}, options.c_str());
+                program_from_cache_ = true;
+                return;
+            } catch (const cl::Error&) {
+            }
+    }
     program_ = cl::Program(context_, source);
     try {
-        program_.build(std::vector<cl::Device>{device_}, build_options(max_candidates_, serial_gather()).c_str());
+        program_.build(std::vector<cl::Device>{device_}, options.c_str());
     } catch (const cl::Error&) {
         std::string log = program_.getBuildInfo<CL_PROGRAM_BUILD_LOG>(device_);
         for (char& c : log)
             if (c == '\n') c = ' ';
         throw Error("OpenCL kernel build failed on '" + info_.name + "': " + log);
     }
+    if (path.empty()) return;
+    const auto binaries = program_.getInfo<CL_PROGRAM_BINARIES>();
+    if (binaries.size() == 1 && !binaries[0].empty()) store_program_binary(path, name, binaries[0]);
 }
 
 cl::Kernel& OpenCLRuntime::kernel(const std::string& name) {

@@ -76,6 +76,8 @@ public:
     /// Test hook (TRILEVEL_FAULT=stage): the first launch, wait or allocation in `stage` fails as
     /// if the device had returned CL_OUT_OF_RESOURCES. Empty: no fault.
     void inject_fault(const std::string& stage) { fault_stage_ = stage; }
+    /// Whether the program came from the on-disk binary cache (program_cache.hpp), not from source.
+    bool program_from_cache() const { return program_from_cache_; }
     /// After a failed reconstruction: waits for what is still queued (ignoring errors) and drops the
     /// pending events and timings, and releases the pooled buffers, so the next reconstruction
     /// starts from a clean queue and fresh buffers.
@@ -98,6 +100,7 @@ private:
     std::map<std::string, double> kernel_ms_;
     std::size_t work_group_ = kDefaultWorkGroup;
     std::size_t max_candidates_ = 2048;
+    bool program_from_cache_ = false;
     BufferPool pool_;
     std::uint64_t budget_ = 0, peak_lent_ = 0;
     std::uint64_t ram_room_ = 0;      ///< CPU devices: MemAvailable at reset_budget (0: no check)

@@ -21,6 +21,7 @@ using namespace trilevel;
 using trilevel::test::require_closed;
 using trilevel::test::frame_memory_need;
 using trilevel::test::same_mesh;
+using trilevel::test::ScopedEnv;
 using trilevel::test::settled_unpooled_buffers;
 
 namespace {
@@ -35,13 +36,6 @@ Params with_radius(float r) {
     p.particle_radius = r;
     return p;
 }
-
-/// Sets an environment variable for one scope (the tests run single-threaded here).
-struct ScopedEnv {
-    std::string name;
-    ScopedEnv(const char* n, const char* value) : name(n) { ::setenv(n, value, 1); }
-    ~ScopedEnv() { ::unsetenv(name.c_str()); }
-};
 
 /// The API must throw one line naming `name` and giving `why`.
 void require_param_error(const std::vector<float>& xyz, const Params& p, const std::string& name, const std::string& why,

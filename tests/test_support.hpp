@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <string>
@@ -52,6 +53,13 @@ inline bool same_mesh(const Mesh& a, const Mesh& b) {
     return same_bits(a.positions, b.positions) && a.triangles == b.triangles && a.vertex_level == b.vertex_level &&
            a.triangle_kind == b.triangle_kind && same_bits(a.normals, b.normals);
 }
+
+/// Sets an environment variable for one scope (each test process runs its cases one at a time).
+struct ScopedEnv {
+    std::string name;
+    ScopedEnv(const char* n, const char* value) : name(n) { ::setenv(n, value, 1); }
+    ~ScopedEnv() { ::unsetenv(name.c_str()); }
+};
 
 /// A fresh temporary directory, removed at scope exit.
 struct TempDir {

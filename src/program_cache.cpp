@@ -1,0 +1,93 @@
+#include "program_cache.hpp"
+
+#include <unistd.h>
+
+#include <atomic>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <system_error>
+
+namespace trilevel {
+namespace {
+
+constexpr char kMagic[] = "trilevel program binary 1\n";  // bump the digit when the layout changes
+
+std::uint64_t fnv1a(const void* data, std::size_t n, std::uint64_t h = 0xcbf29ce484222325ULL) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (std::size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 0x100000001b3ULL;
+    return h;
+}
+
+/// Entry layout: magic, name and '\n', payload size and payload checksum (8 bytes each, host
+/// order: an entry never leaves the machine that wrote it), payload.
+std::string header(const std::string& name, std::uint64_t size, std::uint64_t checksum) {
+    std::string h = kMagic + name + "\n";
+    h.append(reinterpret_cast<const char*>(&size), sizeof size);
+    h.append(reinterpret_cast<const char*>(&checksum), sizeof checksum);
+    return h;
+}
+
+}  // namespace
+
+std::string program_cache_dir() {
+    if (const char* d = std::getenv("TRILEVEL_CACHE_DIR")) return d;  // "" turns the cache off
+    if (const char* x = std::getenv("XDG_CACHE_HOME"); x && *x) return std::string(x) + "/trilevel";
+    if (const char* h = std::getenv("HOME"); h && *h) return std::string(h) + "/.cache/trilevel";
+    return {};
+}
+
+std::string program_cache_name(const std::vector<std::string_view>& identity) {
+    std::uint64_t h = 0xcbf29ce484222325ULL;
+    for (std::string_view part : identity) {
+        const std::uint64_t n = part.size();  // lengths keep ("ab", "c") apart from ("a", "bc")
+        h = fnv1a(&n, sizeof n, h);
+        h = fnv1a(part.data(), part.size(), h);
+    }
+    char buf[17];
+    std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
+    return buf;
+}
+
+std::optional<std::vector<unsigned char>> load_program_binary(const std::string& path, const std::string& name) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) return std::nullopt;
+    const std::vector<unsigned char> file((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::size_t head = header(name, 0, 0).size();
+    if (file.size() < head) return std::nullopt;
+    std::uint64_t size = 0, checksum = 0;
+    std::memcpy(&size, file.data() + head - 16, 8);
+    std::memcpy(&checksum, file.data() + head - 8, 8);
+    if (size != file.size() - head || header(name, size, checksum) != std::string(file.begin(), file.begin() + head))
+        return std::nullopt;
+    std::vector<unsigned char> payload(file.begin() + std::ptrdiff_t(head), file.end());
+    if (payload.empty() || fnv1a(payload.data(), payload.size()) != checksum) return std::nullopt;
+    return payload;
+}
+
+bool store_program_binary(const std::string& path, const std::string& name, const std::vector<unsigned char>& binary) {
+    static std::atomic<unsigned> counter{0};
+    std::error_code ec;
+    const std::filesystem::path target(path);
+    if (target.has_parent_path()) std::filesystem::create_directories(target.parent_path(), ec);
+    const std::string tmp = path + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
+    {
+        std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+        const std::string h = header(name, binary.size(), fnv1a(binary.data(), binary.size()));
+        out.write(h.data(), std::streamsize(h.size()));
+        out.write(reinterpret_cast<const char*>(binary.data()), std::streamsize(binary.size()));
+        if (!out.flush()) {
+            std::filesystem::remove(tmp, ec);
+            return false;
+        }
+    }
+    std::filesystem::rename(tmp, target, ec);
+    if (!ec) return true;
+    std::filesystem::remove(tmp, ec);
+    return false;
+}
+
+}  // namespace trilevel
