@@ -67,9 +67,14 @@ bool needs_growth(const HashCounters& c, const DeviceHash& h, double max_load = 
     return c.overflow || double(c.inserted) > max_load * double(h.capacity);
 }
 
-/// The capacity a table that must grow gets: twice its own, or load 1/2 for what it took.
-std::size_t grown_capacity(const DeviceHash& h, const HashCounters& c) {
-    return std::max(h.capacity * 2, c.inserted * 2 + 1);
+/// Slots that hold `keys` keys at load factor `load`.
+std::size_t capacity_for(std::size_t keys, double load) {
+    return std::size_t(double(keys) / load) + 1;
+}
+
+/// The capacity a table that must grow gets: twice its own, or `load` (DESIGN §5: 1/2) for what it took.
+std::size_t grown_capacity(const DeviceHash& h, const HashCounters& c, double load = 0.5) {
+    return std::max(h.capacity * 2, capacity_for(c.inserted, load));
 }
 
 /// Runs `insert` into a fresh table until it fits at load factor <= 0.5 (DESIGN §5); `exact` as
@@ -343,11 +348,6 @@ std::size_t estimate_points(const std::vector<CoarseCell>& cells, int coarse_ste
     return total;
 }
 
-/// Slots that hold `keys` fine points at FinePoints::kTargetLoad.
-std::size_t fine_capacity_for(std::size_t keys) {
-    return std::size_t(double(keys) / FinePoints::kTargetLoad) + 1;
-}
-
 void grow_fine_points(OpenCLRuntime& rt, FinePoints& p, std::size_t capacity) {
     // Host-accessible, so that mapping the table for the host stages costs no copy on CPU devices.
     constexpr cl_mem_flags kShared = CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR;
@@ -367,7 +367,7 @@ void grow_fine_points(OpenCLRuntime& rt, FinePoints& p, std::size_t capacity) {
 /// of it. The table is sized to what it holds, not to a power of two (x64: 4.6 M slots for 3.2 M
 /// points, not 8.4 M).
 void ensure_fine_room(OpenCLRuntime& rt, FinePoints& p, std::size_t keys) {
-    if (double(keys) > FinePoints::kMaxLoad * double(p.hash.capacity)) grow_fine_points(rt, p, fine_capacity_for(keys));
+    if (double(keys) > FinePoints::kMaxLoad * double(p.hash.capacity)) grow_fine_points(rt, p, capacity_for(keys, FinePoints::kTargetLoad));
 }
 
 /// After an insert pass into the fine-point table: records its count, and grows the table when
@@ -377,7 +377,7 @@ bool grew_after_insert(OpenCLRuntime& rt, FinePoints& p) {
     const HashCounters c = read_counters(rt, p.hash);
     p.inserted = c.inserted;
     if (!needs_growth(c, p.hash, FinePoints::kMaxLoad)) return false;
-    grow_fine_points(rt, p, std::max(p.hash.capacity * 2, fine_capacity_for(c.inserted)));
+    grow_fine_points(rt, p, grown_capacity(p.hash, c, FinePoints::kTargetLoad));
     return true;
 }
 

@@ -156,6 +156,18 @@ bool OpenCLRuntime::serial_gather() const {
     return (device_.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_CPU) != 0;
 }
 
+/// Builds the program from a cached binary, if there is one and the driver takes it.
+bool OpenCLRuntime::build_from_binary(std::optional<std::vector<unsigned char>> binary, const std::string& options) {
+    if (!binary) return false;
+    try {
+        program_ = cl::Program(context_, {device_}, cl::Program::Binaries{std::move(*binary)});
+        program_.build(std::vector<cl::Device>{device_}, options.c_str());
+        return true;
+    } catch (const cl::Error&) {
+        return false;
+    }
+}
+
 void OpenCLRuntime::build_program() {
     std::string source;
     for (const char* f : kKernelFiles) source += std::string(embedded_kernel_source(f)) + "\n";
@@ -170,13 +182,8 @@ void OpenCLRuntime::build_program() {
                                    device_.getInfo<CL_DRIVER_VERSION>(), platform.getInfo<CL_PLATFORM_NAME>(),
                                    platform.getInfo<CL_PLATFORM_VERSION>()});
         path = dir + "/" + name + ".clbin";
-        if (auto binary = load_program_binary(path, name)) try {
-                program_ = cl::Program(context_, {device_}, cl::Program::Binaries{std::move(*binary)});
-                program_.build(std::vector<cl::Device>{device_}, options.c_str());
-                program_from_cache_ = true;
-                return;
-            } catch (const cl::Error&) {
-            }
+        program_from_cache_ = build_from_binary(load_program_binary(path, name), options);
+        if (program_from_cache_) return;
     }
     program_ = cl::Program(context_, source);
     try {

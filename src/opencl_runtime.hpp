@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -85,6 +86,7 @@ public:
 
 private:
     void build_program();
+    bool build_from_binary(std::optional<std::vector<unsigned char>> binary, const std::string& options);
     bool serial_gather() const;
     void maybe_fail(const char* call);
     cl::Buffer allocate(BufferPool::Entry& e, std::size_t bytes, const char* what);

@@ -8,7 +8,6 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 #include <system_error>
 
 namespace trilevel {
@@ -53,18 +52,19 @@ std::string program_cache_name(const std::vector<std::string_view>& identity) {
 }
 
 std::optional<std::vector<unsigned char>> load_program_binary(const std::string& path, const std::string& name) {
-    std::ifstream in(path, std::ios::binary);
+    std::ifstream in(path, std::ios::binary | std::ios::ate);
     if (!in) return std::nullopt;
-    const std::vector<unsigned char> file((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    const std::size_t head = header(name, 0, 0).size();
-    if (file.size() < head) return std::nullopt;
+    const std::uint64_t file_size = std::uint64_t(in.tellg());
+    std::string head(header(name, 0, 0).size(), '\0');
+    if (file_size <= head.size() || !in.seekg(0).read(head.data(), std::streamsize(head.size()))) return std::nullopt;
     std::uint64_t size = 0, checksum = 0;
-    std::memcpy(&size, file.data() + head - 16, 8);
-    std::memcpy(&checksum, file.data() + head - 8, 8);
-    if (size != file.size() - head || header(name, size, checksum) != std::string(file.begin(), file.begin() + head))
+    std::memcpy(&size, head.data() + head.size() - 16, 8);
+    std::memcpy(&checksum, head.data() + head.size() - 8, 8);
+    if (size != file_size - head.size() || head != header(name, size, checksum)) return std::nullopt;
+    std::vector<unsigned char> payload(size);
+    if (!in.read(reinterpret_cast<char*>(payload.data()), std::streamsize(size)) ||
+        fnv1a(payload.data(), payload.size()) != checksum)
         return std::nullopt;
-    std::vector<unsigned char> payload(file.begin() + std::ptrdiff_t(head), file.end());
-    if (payload.empty() || fnv1a(payload.data(), payload.size()) != checksum) return std::nullopt;
     return payload;
 }
 

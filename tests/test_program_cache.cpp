@@ -2,10 +2,10 @@
 // foreign ones are refused, and a runtime built from a cached binary meshes like one built from
 // source.
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <vector>
 
+#include "cli_test_support.hpp"
+#include "io_test_files.hpp"
 #include "opencl_runtime.hpp"
 #include "program_cache.hpp"
 #include "test_support.hpp"
@@ -14,19 +14,12 @@
 
 using namespace trilevel;
 using trilevel::test::same_mesh;
+using trilevel::test::slurp;
+using trilevel::test::write_bytes;
 using trilevel::test::ScopedEnv;
 using trilevel::test::TempDir;
 
 namespace {
-
-std::vector<char> read_all(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-void write_all(const std::string& path, const std::vector<char>& bytes) {
-    std::ofstream(path, std::ios::binary | std::ios::trunc).write(bytes.data(), std::streamsize(bytes.size()));
-}
 
 std::vector<std::filesystem::path> entries(const TempDir& dir) {
     std::vector<std::filesystem::path> out;
@@ -51,20 +44,20 @@ TEST_CASE("program cache entries round-trip, and truncated, altered or foreign o
     CHECK_FALSE(load_program_binary(path, program_cache_name({"other"})));
     REQUIRE(entries(tmp).size() == 1);  // no temporary file left beside it
 
-    const std::vector<char> good = read_all(path);
-    std::vector<char> bad = good;
+    const std::string good = slurp(path);
+    std::string bad = good;
     bad.pop_back();
-    write_all(path, bad);
+    write_bytes(path, bad);
     CHECK_FALSE(load_program_binary(path, name));  // truncated
     bad = good;
     bad.back() ^= 1;
-    write_all(path, bad);
+    write_bytes(path, bad);
     CHECK_FALSE(load_program_binary(path, name));  // payload changed: checksum
     bad = good;
     bad[0] ^= 1;
-    write_all(path, bad);
+    write_bytes(path, bad);
     CHECK_FALSE(load_program_binary(path, name));  // not our format
-    write_all(path, good);
+    write_bytes(path, good);
     CHECK(load_program_binary(path, name) == binary);
 }
 
