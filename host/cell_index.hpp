@@ -43,25 +43,11 @@ private:
     std::uint64_t mask_ = 0;
 };
 
-/// Looks up `n` keys at once: prefetches every home slot first so the misses overlap, then
-/// probes. out[i] = pointer to the value of keys[i], or nullptr when absent.
+/// Looks up `n` packed keys at once (FinePointMap::find_batch): out[i] = pointer to the value
+/// of keys[i], or nullptr when absent.
 template <class Map, class Value>
 void find_batch(Map& map, const std::uint64_t* keys, std::size_t n, Value** out) {
-    if (map.capacity() == 0) {
-        for (std::size_t i = 0; i < n; ++i) out[i] = nullptr;
-        return;
-    }
-    const std::uint64_t* table = map.keys().data();
-    const std::uint64_t capacity = map.capacity();
-    for (std::size_t i = 0; i < n; ++i) {
-        __builtin_prefetch(table + lattice::home_slot(keys[i], capacity));
-        __builtin_prefetch(map.values().data() + lattice::home_slot(keys[i], capacity));
-    }
-    for (std::size_t i = 0; i < n; ++i) {
-        std::uint64_t s = lattice::home_slot(keys[i], capacity);
-        while (table[s] != keys[i] && table[s] != lattice::kEmptyKey) s = lattice::next_slot(s, capacity);
-        out[i] = table[s] == keys[i] ? &map.values()[s] : nullptr;
-    }
+    map.find_batch(keys, n, out);
 }
 
 /// Looks up the level-2 lattice points of coarse cell `coord` (every second point, (cs/2+1)^3 of

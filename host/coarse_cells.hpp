@@ -6,6 +6,8 @@
 
 #include <glm/glm.hpp>
 
+#include "lattice.hpp"
+
 namespace trilevel {
 
 /// One coarse surface cell (paper Fig. 1). Its lattice points are
@@ -22,6 +24,7 @@ struct LatticeFrame {
     glm::vec3 origin{0.0f};  ///< world position of lattice point (0,0,0)
     float step = 1.0f;       ///< world distance between neighbouring lattice points
     int coarse_steps = 4;    ///< lattice steps per coarse cell edge (even)
+    lattice::KeyLayout keys;  ///< how the fine-point table stores its points (default: 64-bit pack())
 };
 
 }  // namespace trilevel

@@ -36,6 +36,40 @@ inline bool in_range(glm::ivec3 p) {
     return p.x >= 0 && p.y >= 0 && p.z >= 0 && p.x <= kMaxCoord && p.y <= kMaxCoord && p.z <= kMaxCoord;
 }
 
+/// How the fine-point table stores a lattice point: its coordinates packed x lowest, y from bit
+/// `y_shift`, z from bit `z_shift`. The home slot is always that of pack(p), so the table's layout
+/// (and every result) is the same whatever the storage. A frame whose lattice fits 32 bits stores
+/// 4-byte keys (8 bytes a slot with the value instead of 12: x64 table 55 -> 37 MB); the default
+/// is pack() itself in 64 bits. Must match fine_key() in kernels/hash_table.cl.
+struct KeyLayout {
+    int y_shift = kAxisBits, z_shift = 2 * kAxisBits;
+    bool wide = true;  ///< 64-bit keys
+    glm::ivec3 max_coord{kMaxCoord};  ///< largest coordinate each axis holds
+
+    std::uint64_t compact(glm::ivec3 p) const {
+        return std::uint64_t(std::uint32_t(p.x)) | (std::uint64_t(std::uint32_t(p.y)) << y_shift) |
+               (std::uint64_t(std::uint32_t(p.z)) << z_shift);
+    }
+    glm::ivec3 point(std::uint64_t k) const {
+        return {int(k & ((std::uint64_t{1} << y_shift) - 1)), int((k >> y_shift) & ((std::uint64_t{1} << (z_shift - y_shift)) - 1)),
+                int(k >> z_shift)};
+    }
+    std::uint64_t empty() const { return wide ? kEmptyKey : 0xffffffffull; }
+    std::size_t key_bytes() const { return wide ? 8 : 4; }
+    bool holds(glm::ivec3 p) const { return glm::all(glm::greaterThanEqual(p, glm::ivec3(0))) && glm::all(glm::lessThanEqual(p, max_coord)); }
+};
+
+/// The 32-bit layout for a lattice whose points lie in [0, max_coord], when one fits: each axis
+/// takes the bits of its largest coordinate, z one more than that when needed so that no key is
+/// all ones (the empty slot). Otherwise the default 64-bit one.
+inline KeyLayout key_layout_for(glm::ivec3 max_coord) {
+    auto bits = [](std::uint32_t v) { return v == 0 ? 1 : 32 - __builtin_clz(v); };
+    const int bx = bits(std::uint32_t(max_coord.x)), by = bits(std::uint32_t(max_coord.y));
+    const int bz = bits(std::uint32_t(max_coord.z) + 1);  // z's field never all ones
+    if (bx + by + bz > 32) return KeyLayout{};
+    return KeyLayout{bx, bx + by, false, max_coord};
+}
+
 /// Hash of a key; identical to trilevel_hash() in hash_table.cl (home_slot() below maps it into a table). The
 /// members of a 2x2x2 block share one run of 8 slots (one cache line of keys); points with all
 /// coordinates even form such blocks on the level-2 lattice. Lookups of neighbouring points then

@@ -10,6 +10,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <type_traits>
 #include <utility>
 
 #include <tbb/blocked_range.h>
@@ -39,7 +40,7 @@ struct ChunkOut {
 struct Scratch {
     std::vector<float> values;
     std::vector<std::int32_t> slots;
-    std::vector<std::pair<std::uint64_t, std::uint64_t>> home;  // key, home slot
+    std::vector<std::pair<std::uint64_t, std::uint64_t>> home;  // stored key, home slot
     std::vector<float> midpoint;          // level 2: midpoint value per crossed edge (point * 3 + axis)
     std::vector<std::uint64_t> mid_keys;  // level 2: the crossed edges' midpoint keys ...
     std::vector<int> mid_edges;           // ... their edge slots
@@ -77,31 +78,35 @@ bool CellMesher::gather(const CoarseCell& cell, int n, Scratch& s) const {
     const int st = stride(cell.level), np = n + 1;
     const glm::ivec3 base = cell.coord * frame_.coarse_steps;
     const std::size_t count = std::size_t(np) * np * np;
-    const std::uint64_t* keys = field_.keys().data();
     const float* values = field_.values().data();
     const std::uint64_t capacity = field_.capacity();
+    const lattice::KeyLayout& layout = field_.layout();
     s.values.resize(count);
     s.home.resize(count);
-    std::size_t i = 0, inside = 0;
-    for (int z = 0; z < np; ++z)
-        for (int y = 0; y < np; ++y)
-            for (int x = 0; x < np; ++x, ++i) {
-                const std::uint64_t key = lattice::pack(base + st * glm::ivec3(x, y, z));
-                s.home[i] = {key, lattice::home_slot(key, capacity)};
-                __builtin_prefetch(keys + s.home[i].second);
-                __builtin_prefetch(values + s.home[i].second);
+    std::size_t inside = 0;
+    field_.with_keys([&](const auto* keys) {
+        using Key = std::remove_cvref_t<decltype(*keys)>;
+        std::size_t i = 0;
+        for (int z = 0; z < np; ++z)
+            for (int y = 0; y < np; ++y)
+                for (int x = 0; x < np; ++x, ++i) {  // home slot by the packed key, compare the stored one
+                    const glm::ivec3 p = base + st * glm::ivec3(x, y, z);
+                    s.home[i] = {layout.compact(p), lattice::home_slot(lattice::pack(p), capacity)};
+                    __builtin_prefetch(keys + s.home[i].second);
+                    __builtin_prefetch(values + s.home[i].second);
+                }
+        for (i = 0; i < count; ++i) {
+            const Key key = Key(s.home[i].first);
+            std::uint64_t slot = s.home[i].second;
+            while (keys[slot] != key) {
+                if (keys[slot] == Key(layout.empty()))
+                    throw Error("triangulation: a fine point of a surface cell is missing from the map");
+                slot = lattice::next_slot(slot, capacity);
             }
-    for (i = 0; i < count; ++i) {
-        const std::uint64_t key = s.home[i].first;
-        std::uint64_t slot = s.home[i].second;
-        while (keys[slot] != key) {
-            if (keys[slot] == lattice::kEmptyKey)
-                throw Error("triangulation: a fine point of a surface cell is missing from the map");
-            slot = lattice::next_slot(slot, capacity);
+            s.values[i] = values[slot];
+            inside += mc::inside(values[slot]);
         }
-        s.values[i] = values[slot];
-        inside += mc::inside(values[slot]);
-    }
+    });
     if (inside == 0 || inside == count) return false;
     s.slots.assign(count * 3, -1);
     return true;

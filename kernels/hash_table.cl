@@ -92,7 +92,7 @@ inline long hash_insert(volatile __global ulong* keys, ulong capacity, ulong key
 }
 
 // hash_insert keeping the table's counters: stats[0] = overflow flag, stats[1] = keys newly
-// inserted (the host grows the table when it passes its load limit: 1/2, fine points 0.6).
+// inserted (the host grows the table when it passes its load limit: 1/2, fine points 0.8).
 inline long hash_insert_counted(volatile __global ulong* keys, ulong capacity, ulong key, volatile __global int* stats) {
     int created;
     const long s = hash_insert(keys, capacity, key, &created);
@@ -109,14 +109,88 @@ __kernel void hash_insert_keys(__global const ulong* in, uint n, volatile __glob
     slot_of[i] = hash_insert_counted(keys, capacity, in[i], stats);
 }
 
-// Moves every key (and its value) of an old table into a larger one.
-__kernel void hash_rehash(__global const ulong* old_keys, __global const float* old_values, ulong old_capacity,
-                          volatile __global ulong* keys, __global float* values, ulong capacity,
+// The fine-point table stores lattice point p as fine_key(p): its coordinates packed with the
+// frame's shifts (y from bit shift.x, z from bit shift.y) into FINE_KEY_BITS bits, 32 when the
+// lattice fits (host/lattice.hpp, KeyLayout), else 64. Its home slot is always that of pack_key(p),
+// so the table's layout does not depend on the storage.
+#if FINE_KEY_BITS == 32
+typedef uint fine_key_t;
+#define FINE_EMPTY 0xffffffffu
+#define fine_cmpxchg atomic_cmpxchg
+#else
+typedef ulong fine_key_t;
+#define FINE_EMPTY EMPTY_KEY
+#define fine_cmpxchg atom_cmpxchg
+#endif
+
+inline fine_key_t fine_key(int3 p, uint2 shift) {
+    return (fine_key_t)(uint)p.x | ((fine_key_t)(uint)p.y << shift.x) | ((fine_key_t)(uint)p.z << shift.y);
+}
+
+inline int3 fine_point(fine_key_t k, uint2 shift) {
+    const fine_key_t one = 1;
+    return (int3)((int)(k & ((one << shift.x) - one)), (int)((k >> shift.x) & ((one << (shift.y - shift.x)) - one)),
+                  (int)(k >> shift.y));
+}
+
+// hash_find for lattice point p in the fine-point table.
+inline long fine_find(const __global fine_key_t* keys, ulong capacity, int3 p, uint2 shift) {
+    const fine_key_t key = fine_key(p, shift);
+    ulong s = home_slot(pack_key(p), capacity);
+    for (ulong i = 0; i < capacity; ++i) {
+        const fine_key_t cur = keys[s];
+        if (cur == key) return (long)s;
+        if (cur == FINE_EMPTY) return -1;
+        s = next_slot(s, capacity);
+    }
+    return -1;
+}
+
+// hash_insert for lattice point p in the fine-point table.
+inline long fine_insert(volatile __global fine_key_t* keys, ulong capacity, int3 p, uint2 shift, int* created) {
+    const fine_key_t key = fine_key(p, shift);
+    ulong s = home_slot(pack_key(p), capacity);
+    *created = 0;
+    for (ulong i = 0; i < capacity; ++i) {
+        const fine_key_t cur = keys[s];
+        if (cur == key) return (long)s;
+        if (cur == FINE_EMPTY) {
+            const fine_key_t prev = fine_cmpxchg(&keys[s], FINE_EMPTY, key);
+            if (prev == FINE_EMPTY) { *created = 1; return (long)s; }
+            if (prev == key) return (long)s;
+        }
+        s = next_slot(s, capacity);
+    }
+    return -1;
+}
+
+// fine_insert keeping the table's counters, as hash_insert_counted.
+inline long fine_insert_counted(volatile __global fine_key_t* keys, ulong capacity, int3 p, uint2 shift,
+                                volatile __global int* stats) {
+    int created;
+    const long s = fine_insert(keys, capacity, p, shift, &created);
+    if (created) atomic_inc(&stats[1]);
+    if (s < 0) atomic_or(&stats[0], 1);
+    return s;
+}
+
+// Inserts `n` lattice points given as packed keys (pack_key) into the fine-point table, recording
+// each one's slot.
+__kernel void fine_insert_keys(__global const ulong* in, uint n, volatile __global fine_key_t* keys, ulong capacity,
+                               uint2 shift, __global long* slot_of, volatile __global int* stats) {
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    slot_of[i] = fine_insert_counted(keys, capacity, unpack_key(in[i]), shift, stats);
+}
+
+// Moves every point (and its value) of an old fine-point table into a larger one.
+__kernel void fine_rehash(__global const fine_key_t* old_keys, __global const float* old_values, ulong old_capacity,
+                          volatile __global fine_key_t* keys, __global float* values, ulong capacity, uint2 shift,
                           volatile __global int* stats) {
     ulong i = get_global_id(0);
     if (i >= old_capacity) return;
-    ulong k = old_keys[i];
-    if (k == EMPTY_KEY) return;
-    long s = hash_insert_counted(keys, capacity, k, stats);
+    const fine_key_t k = old_keys[i];
+    if (k == FINE_EMPTY) return;
+    long s = fine_insert_counted(keys, capacity, fine_point(k, shift), shift, stats);
     if (s >= 0) values[s] = old_values[i];
 }

@@ -5,7 +5,8 @@
 
 // cells: x, y, z = coarse coordinates, w = level. One work-item per (cell, local point).
 __kernel void refine_points(__global const int4* cells, uint cell_count, int coarse_steps,
-                            volatile __global ulong* keys, ulong capacity, volatile __global int* stats) {
+                            volatile __global fine_key_t* keys, ulong capacity, volatile __global int* stats,
+                            uint2 shift) {
     uint gid = get_global_id(0);
     int side = coarse_steps + 1;
     uint per_cell = (uint)(side * side * side);
@@ -15,13 +16,13 @@ __kernel void refine_points(__global const int4* cells, uint cell_count, int coa
     int3 o = (int3)(l % side, (l / side) % side, l / (side * side));
     if (c.w == 2 && ((o.x | o.y | o.z) & 1)) return;  // level 2 uses every second point
     int3 p = c.xyz * coarse_steps + o;
-    hash_insert_counted(keys, capacity, pack_key(p), stats);
+    fine_insert_counted(keys, capacity, p, shift, stats);
 }
 
 // Lists the slots whose value is still NaN (inserted, not evaluated).
-__kernel void collect_pending(__global const ulong* keys, __global const float* values, ulong capacity,
+__kernel void collect_pending(__global const fine_key_t* keys, __global const float* values, ulong capacity,
                               volatile __global uint* count, __global uint* pending) {
     ulong s = get_global_id(0);
     if (s >= capacity) return;
-    if (keys[s] != EMPTY_KEY && isnan(values[s])) pending[atomic_inc(count)] = (uint)s;
+    if (keys[s] != FINE_EMPTY && isnan(values[s])) pending[atomic_inc(count)] = (uint)s;
 }

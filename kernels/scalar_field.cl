@@ -94,14 +94,14 @@ inline float solenthaler_phi(float K, float3 S, float3 G, float3 A0, float3 A1, 
     return solenthaler_value(K, ybar, ev, r, R);
 }
 
-__kernel void scalar_field(__global const uint* pending, uint count, __global const ulong* keys,
+__kernel void scalar_field(__global const uint* pending, uint count, __global const fine_key_t* keys,
                            __global float* values, float step, __global const float* sorted, float inv_cell,
                            __global const ulong* bin_keys, ulong bin_capacity, __global const uint2* range,
-                           float r, float R) {
+                           float r, float R, uint2 shift) {
     uint i = get_global_id(0);
     if (i >= count) return;
     uint slot = pending[i];
-    float4 x = (float4)(convert_float3(unpack_key(keys[slot])) * step, 0.0f);
+    float4 x = (float4)(convert_float3(fine_point(keys[slot], shift)) * step, 0.0f);
     float R2 = R * R, inv_R2 = 1.0f / R2;
     float K = 0.0f;
     float3 S = (float3)(0.0f), G = (float3)(0.0f);
@@ -170,14 +170,14 @@ inline uint near_candidates(float8 X, float8 Y, float8 Z, __local const float4* 
 #define CLAIM_LISTED 4             /* the slots the host listed for the work-group (stage 8b) */
 
 __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, int claim,
-                                 volatile __global ulong* keys, ulong capacity,
+                                 volatile __global fine_key_t* keys, ulong capacity,
                                  volatile __global uint* value_bits, float step, __global const float* sorted,
                                  float inv_cell, __global const ulong* bin_keys, ulong bin_capacity,
                                  __global const uint2* range, float r, float R, volatile __global int* overflow,
                                  __local float4* cand, __local uint* bin_first, __local uint* bin_slot,
                                  __local uint* count, __local uint* claimed, __local uint* claimed_count,
                                  int cells_are_bins, volatile __global int* table_stats,
-                                 __global const uint* listed_first, __global const long* listed_slots) {
+                                 __global const uint* listed_first, __global const long* listed_slots, uint2 shift) {
     const int4 c = cells[get_group_id(0)];
     const uint lid = get_local_id(0), lsize = get_local_size(0);
     if (claim == CLAIM_LISTED && listed_first[get_group_id(0)] == listed_first[get_group_id(0) + 1]) return;
@@ -212,17 +212,17 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
                               ? odd == 1
                               : c.w != 2 || odd == 0 || (claim == CLAIM_LEVEL_AND_CENTRES && odd == 3);
         if (!take) continue;
-        const ulong key = pack_key(c.xyz * coarse_steps + o);
+        const int3 point = c.xyz * coarse_steps + o;
         if (claim == CLAIM_INSERTED) {  // a point is evaluated by the work-group that created it
             int created;
-            const long slot = hash_insert(keys, capacity, key, &created);
+            const long slot = fine_insert(keys, capacity, point, shift, &created);
             if (slot < 0) atomic_or(&table_stats[0], 1);  // full: the host grows it and claims again
             if (!created) continue;
             atomic_inc(claimed_count);
             if (fits) claimed[l] = (uint)slot;
             continue;
         }
-        const long slot = hash_find((const __global ulong*)keys, capacity, key);
+        const long slot = fine_find((const __global fine_key_t*)keys, capacity, point, shift);
         if (slot < 0) continue;
         if (atomic_cmpxchg(&value_bits[slot], PENDING_BITS, CLAIMED_BITS) != PENDING_BITS) continue;
         claimed[l] = (uint)slot;
@@ -246,7 +246,7 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
     for (uint first = lid * LANES; first < n_claimed; first += lsize * LANES) {
         float px[LANES], py[LANES], pz[LANES];
         for (int l = 0; l < LANES; ++l) {  // spare lanes repeat the last point
-            float3 x = convert_float3(unpack_key(keys[claimed[min(first + l, n_claimed - 1)]])) * step;
+            float3 x = convert_float3(fine_point(keys[claimed[min(first + l, n_claimed - 1)]], shift)) * step;
             px[l] = x.x; py[l] = x.y; pz[l] = x.z;
         }
         const float8 X = vload8(0, px), Y = vload8(0, py), Z = vload8(0, pz);

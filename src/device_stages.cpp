@@ -41,14 +41,15 @@ DeviceBuffer upload(OpenCLRuntime& rt, const std::vector<T>& data, const char* w
 /// order, and the low-bit layout keeps it cache-friendly (home_slot in hash_table.cl). The
 /// coarse-cell and fine-point tables are sized to what they hold (the fine points are most of
 /// the peak memory).
+/// `key_bytes`: 8, or 4 for a fine-point table in a 32-bit lattice::KeyLayout.
 DeviceHash make_hash(OpenCLRuntime& rt, std::size_t capacity, const char* what,
-                     cl_mem_flags flags = CL_MEM_READ_WRITE, bool exact = false) {
+                     cl_mem_flags flags = CL_MEM_READ_WRITE, bool exact = false, std::size_t key_bytes = 8) {
     DeviceHash h;
     capacity = std::max<std::size_t>(capacity, 1024);
     h.capacity = lattice::table_capacity(exact ? capacity : std::bit_ceil(capacity));
-    h.keys = rt.buffer(h.capacity * sizeof(cl_ulong), what, flags);
+    h.keys = rt.buffer(h.capacity * key_bytes, what, flags);
     h.stats = rt.buffer(2 * sizeof(cl_int), (std::string(what) + " counters").c_str());
-    rt.queue().enqueueFillBuffer(h.keys, ~cl_ulong{0}, 0, h.capacity * sizeof(cl_ulong));
+    rt.queue().enqueueFillBuffer(h.keys, ~cl_uint{0}, 0, h.capacity * key_bytes);  // all ones: empty
     rt.queue().enqueueFillBuffer(h.stats, cl_int{0}, 0, 2 * sizeof(cl_int));
     return h;
 }
@@ -348,16 +349,38 @@ std::size_t estimate_points(const std::vector<CoarseCell>& cells, int coarse_ste
     return total;
 }
 
+/// Kernel `name` from the program built for the table's key width (FINE_KEY_BITS in
+/// kernels/hash_table.cl); launch it before asking for another width.
+cl::Kernel& fine_kernel(OpenCLRuntime& rt, const FinePoints& p, const char* name) {
+    rt.set_fine_key_bits(p.layout.wide ? 64 : 32);
+    return rt.kernel(name);
+}
+
+/// The layout as the kernels take it: the shifts of y and z.
+cl_uint2 key_shifts(const lattice::KeyLayout& l) { return {{cl_uint(l.y_shift), cl_uint(l.z_shift)}}; }
+
+/// The table takes the frame's key layout when it is made; every point it will hold must fit it
+/// (make_grid sizes it with margin: a point outside would alias another one, so this is checked).
+void adopt_layout(FinePoints& p, const LatticeFrame& frame, const std::vector<CoarseCell>& cells) {
+    if (p.hash.capacity == 0) p.layout = frame.keys;
+    else if (p.layout.wide != frame.keys.wide || p.layout.max_coord != frame.keys.max_coord)
+        throw Error("internal: a fine-point table is refined with a lattice of another key layout");
+    for (const CoarseCell& c : cells)
+        if (!p.layout.holds(c.coord * frame.coarse_steps) || !p.layout.holds((c.coord + 1) * frame.coarse_steps))
+            throw Error("internal: coarse cell (" + std::to_string(c.coord.x) + ", " + std::to_string(c.coord.y) + ", " +
+                        std::to_string(c.coord.z) + ") lies outside the fine-point key layout");
+}
+
 void grow_fine_points(OpenCLRuntime& rt, FinePoints& p, std::size_t capacity) {
     // Host-accessible, so that mapping the table for the host stages costs no copy on CPU devices.
     constexpr cl_mem_flags kShared = CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR;
-    DeviceHash h = make_hash(rt, capacity, "fine point hash", kShared, true);
+    DeviceHash h = make_hash(rt, capacity, "fine point hash", kShared, true, p.layout.key_bytes());
     DeviceBuffer values = rt.buffer(h.capacity * sizeof(cl_float), "fine point values", kShared);
     rt.queue().enqueueFillBuffer(values, std::numeric_limits<float>::quiet_NaN(), 0, h.capacity * sizeof(cl_float));
     if (p.hash.capacity) {
-        set_args(rt.kernel("hash_rehash"), p.hash.keys, p.values, cl_ulong(p.hash.capacity), h.keys, values,
-                 cl_ulong(h.capacity), h.stats);
-        rt.run("hash_rehash", p.hash.capacity);
+        set_args(fine_kernel(rt, p, "fine_rehash"), p.hash.keys, p.values, cl_ulong(p.hash.capacity), h.keys, values,
+                 cl_ulong(h.capacity), key_shifts(p.layout), h.stats);
+        rt.run("fine_rehash", p.hash.capacity);
     }
     p.hash = std::move(h);  // the old table goes back to the pool (queued commands keep their order)
     p.values = std::move(values);
@@ -403,7 +426,7 @@ bool evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf
     DeviceBuffer overflow = rt.buffer(sizeof(cl_int), "scalar field overflow flag");
     rt.queue().enqueueFillBuffer(overflow, cl_int{0}, 0, sizeof(cl_int));
     constexpr std::size_t kMaxCellPoints = 729;  // as in scalar_field.cl
-    auto& k = rt.kernel("scalar_field_cells");
+    auto& k = fine_kernel(rt, p, "scalar_field_cells");
     set_args(k, cell_buf, cl_int(frame.coarse_steps), cl_int(claim), p.hash.keys, cl_ulong(p.hash.capacity),
              p.values, frame.step, b.sorted, 1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.capacity), b.range, r, R,
              overflow);
@@ -414,6 +437,7 @@ bool evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf
     k.setArg(22, p.hash.stats);
     k.setArg(23, listed ? listed->first : cell_buf);  // any buffer where no list is read
     k.setArg(24, listed ? listed->slots : cell_buf);
+    k.setArg(25, key_shifts(p.layout));
     rt.run_groups("scalar_field_cells", cell_count, kCellGroup);
     const bool overflow_seen = read_buffer<cl_int>(rt, overflow, 1)[0] != 0;
     if (claim == ClaimPoints::Inserted) {
@@ -443,7 +467,7 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<Coa
     const std::size_t work = cells.size() * side * side * side;
     if (work > std::numeric_limits<cl_uint>::max()) throw Error("too many fine points in one refinement pass");
 
-    reserve_fine_points(rt, p, cells, frame, 0);
+    reserve_fine_points(rt, p, cells, frame, 0);  // takes the frame's key layout
     if (claim == ClaimPoints::Level) {  // one pass: each cell inserts its points and evaluates those it created
         if (evaluate_cells(rt, p, cell_buf, cells.size(), ClaimPoints::Inserted, frame, b, r, R)) {
             ensure_fine_room(rt, p, p.inserted);
@@ -453,8 +477,8 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<Coa
         grow_fine_points(rt, p, p.hash.capacity * 2);  // full (the estimate fell short): the passes apart
     }
     for (;;) {  // stage 5; inserting is idempotent, so after growth the pass simply runs again
-        set_args(rt.kernel("refine_points"), cell_buf, cl_uint(cells.size()), cl_int(frame.coarse_steps), p.hash.keys,
-                 cl_ulong(p.hash.capacity), p.hash.stats);
+        set_args(fine_kernel(rt, p, "refine_points"), cell_buf, cl_uint(cells.size()), cl_int(frame.coarse_steps),
+                 p.hash.keys, cl_ulong(p.hash.capacity), p.hash.stats, key_shifts(p.layout));
         rt.run("refine_points", work);
         if (!grew_after_insert(rt, p)) break;
     }
@@ -468,11 +492,11 @@ void evaluate_pending(OpenCLRuntime& rt, FinePoints& p, const LatticeFrame& fram
     DeviceBuffer count = rt.buffer(sizeof(cl_uint), "pending count");
     DeviceBuffer pending = rt.buffer(p.inserted * sizeof(cl_uint), "pending points");
     rt.queue().enqueueFillBuffer(count, cl_uint{0}, 0, sizeof(cl_uint));
-    set_args(rt.kernel("collect_pending"), p.hash.keys, p.values, cl_ulong(p.hash.capacity), count, pending);
+    set_args(fine_kernel(rt, p, "collect_pending"), p.hash.keys, p.values, cl_ulong(p.hash.capacity), count, pending);
     rt.run("collect_pending", p.hash.capacity);
     const cl_uint todo = read_buffer<cl_uint>(rt, count, 1)[0];
-    set_args(rt.kernel("scalar_field"), pending, todo, p.hash.keys, p.values, frame.step, b.sorted, 1.0f / b.cell,
-             b.bins.keys, cl_ulong(b.bins.capacity), b.range, r, R);
+    set_args(fine_kernel(rt, p, "scalar_field"), pending, todo, p.hash.keys, p.values, frame.step, b.sorted,
+             1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.capacity), b.range, r, R, key_shifts(p.layout));
     rt.run("scalar_field", todo);
     rt.finish();
 }
@@ -481,13 +505,17 @@ namespace {
 
 /// insert_points, returning the slot (cl_long) of each key in the final table.
 DeviceBuffer insert_keys(OpenCLRuntime& rt, FinePoints& p, const std::vector<std::uint64_t>& keys) {
+    for (std::uint64_t k : keys)
+        if (!p.layout.holds(lattice::unpack(k)))
+            throw Error("internal: an extra fine point lies outside the fine-point key layout");
     const cl_uint n = cl_uint(keys.size());
     const DeviceBuffer in = upload(rt, keys, "extra fine points");
     DeviceBuffer slots = rt.buffer(n * sizeof(cl_long), "extra fine point slots");
     ensure_fine_room(rt, p, p.inserted + n);
     for (;;) {  // after growth every key goes in again: the slots are those of the final table
-        set_args(rt.kernel("hash_insert_keys"), in, n, p.hash.keys, cl_ulong(p.hash.capacity), slots, p.hash.stats);
-        rt.run("hash_insert_keys", n);
+        set_args(fine_kernel(rt, p, "fine_insert_keys"), in, n, p.hash.keys, cl_ulong(p.hash.capacity),
+                 key_shifts(p.layout), slots, p.hash.stats);
+        rt.run("fine_insert_keys", n);
         if (!grew_after_insert(rt, p)) break;
     }
     return slots;
@@ -497,6 +525,7 @@ DeviceBuffer insert_keys(OpenCLRuntime& rt, FinePoints& p, const std::vector<std
 
 void reserve_fine_points(OpenCLRuntime& rt, FinePoints& p, const std::vector<CoarseCell>& cells,
                          const LatticeFrame& frame, std::size_t extra) {
+    adopt_layout(p, frame, cells);
     ensure_fine_room(rt, p, p.inserted + extra + estimate_points(cells, frame.coarse_steps));
 }
 
@@ -508,6 +537,7 @@ void insert_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<std
                          const std::vector<std::uint32_t>& first, const std::vector<CoarseCell>& holders,
                          const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
     if (keys.empty()) return;
+    adopt_layout(p, frame, holders);
     const DeviceBuffer slots = insert_keys(rt, p, keys);
     const DeviceBuffer lists = upload(rt, first, "listed point ranges");
     const DeviceBuffer cell_buf = cell_buffer(rt, holders);
@@ -519,11 +549,11 @@ FinePointMap map_fine_points(OpenCLRuntime& rt, FinePoints& p) {
     rt.finish();
     if (p.hash.capacity == 0) return FinePointMap();  // no surface cell: no table
     const std::size_t cap = p.hash.capacity;
-    p.mapped_keys = static_cast<std::uint64_t*>(
-        rt.queue().enqueueMapBuffer(p.hash.keys, CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0, cap * sizeof(cl_ulong)));
+    p.mapped_keys =
+        rt.queue().enqueueMapBuffer(p.hash.keys, CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0, cap * p.layout.key_bytes());
     p.mapped_values = static_cast<float*>(
         rt.queue().enqueueMapBuffer(p.values, CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0, cap * sizeof(cl_float)));
-    return FinePointMap::view(p.mapped_keys, p.mapped_values, cap);
+    return FinePointMap::view(p.mapped_keys, p.mapped_values, cap, p.layout);
 }
 
 void unmap_fine_points(OpenCLRuntime& rt, FinePoints& p) {
@@ -535,8 +565,15 @@ void unmap_fine_points(OpenCLRuntime& rt, FinePoints& p) {
 }
 
 FinePointMap read_fine_points(OpenCLRuntime& rt, const FinePoints& p) {
-    return FinePointMap(read_buffer<cl_ulong>(rt, p.hash.keys, p.hash.capacity),
-                        read_buffer<float>(rt, p.values, p.hash.capacity));
+    std::vector<float> values = read_buffer<float>(rt, p.values, p.hash.capacity);
+    if (p.layout.wide)  // the default layout: pack() itself
+        return FinePointMap(read_buffer<cl_ulong>(rt, p.hash.keys, p.hash.capacity), std::move(values));
+    // Into the default layout: the home slots are those of pack() whatever the storage.
+    std::vector<std::uint64_t> keys(p.hash.capacity);
+    const auto stored = read_buffer<std::uint8_t>(rt, p.hash.keys, p.hash.capacity * p.layout.key_bytes());
+    const FinePointMap view = FinePointMap::view(const_cast<std::uint8_t*>(stored.data()), values.data(), keys.size(), p.layout);
+    for (std::size_t s = 0; s < keys.size(); ++s) keys[s] = view.key_at(s);
+    return FinePointMap(std::move(keys), std::move(values));
 }
 
 }  // namespace trilevel

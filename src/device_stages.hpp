@@ -76,10 +76,11 @@ struct FinePoints {
     /// slower. The other tables keep load 0.5.
     static constexpr double kMaxLoad = 0.8;
     static constexpr double kTargetLoad = 0.7;
-    DeviceHash hash;
+    DeviceHash hash;      ///< keys in `layout` (4 or 8 bytes a slot)
     DeviceBuffer values;  ///< float per slot; NaN until evaluated
+    lattice::KeyLayout layout;  ///< the frame's (LatticeFrame::keys), taken when the table is made
     std::size_t inserted = 0;
-    std::uint64_t* mapped_keys = nullptr;  ///< while mapped for the host (map_fine_points)
+    void* mapped_keys = nullptr;  ///< while mapped for the host (map_fine_points)
     float* mapped_values = nullptr;
 };
 /// Which pending points of its cell a work-group claims (scalar_field.cl, CLAIM_*).

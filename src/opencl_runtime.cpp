@@ -144,7 +144,7 @@ OpenCLRuntime::OpenCLRuntime(int device) try {
     max_candidates_ = std::size_t(std::min<std::uint64_t>(2048, local > 8192 ? (local - 8192) / 32 : 64));
     if (const char* env = std::getenv("TRILEVEL_MAX_CANDIDATES"); env && *env)  // tests: force the fallbacks
         max_candidates_ = std::min<std::size_t>(max_candidates_, std::max(1ul, std::strtoul(env, nullptr, 10)));
-    build_program();
+    programs_.emplace(32, build_program(32));
 } catch (const cl::Error& e) {
     throw Error(std::string("cannot set up the OpenCL device: ") + e.what() + " returned " + cl_error_name(e.err()));
 }
@@ -156,22 +156,23 @@ bool OpenCLRuntime::serial_gather() const {
     return (device_.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_CPU) != 0;
 }
 
-/// Builds the program from a cached binary, if there is one and the driver takes it.
-bool OpenCLRuntime::build_from_binary(std::optional<std::vector<unsigned char>> binary, const std::string& options) {
-    if (!binary) return false;
+/// The program from a cached binary, if there is one and the driver takes it.
+std::optional<cl::Program> OpenCLRuntime::build_from_binary(std::optional<std::vector<unsigned char>> binary,
+                                                            const std::string& options) {
+    if (!binary) return std::nullopt;
     try {
-        program_ = cl::Program(context_, {device_}, cl::Program::Binaries{std::move(*binary)});
-        program_.build(std::vector<cl::Device>{device_}, options.c_str());
-        return true;
+        cl::Program program(context_, {device_}, cl::Program::Binaries{std::move(*binary)});
+        program.build(std::vector<cl::Device>{device_}, options.c_str());
+        return program;
     } catch (const cl::Error&) {
-        return false;
+        return std::nullopt;
     }
 }
 
-void OpenCLRuntime::build_program() {
+cl::Program OpenCLRuntime::build_program(int bits) {
     std::string source;
     for (const char* f : kKernelFiles) source += std::string(embedded_kernel_source(f)) + "\n";
-    const std::string options = build_options(max_candidates_, serial_gather());
+    const std::string options = build_options(max_candidates_, serial_gather()) + " -DFINE_KEY_BITS=" + std::to_string(bits);
     // The cached binary of exactly this source, these options and this device and driver, if any
     // (program_cache.hpp); one the driver rejects is rebuilt from source and replaced.
     const std::string dir = program_cache_dir();
@@ -182,27 +183,38 @@ void OpenCLRuntime::build_program() {
                                    device_.getInfo<CL_DRIVER_VERSION>(), platform.getInfo<CL_PLATFORM_NAME>(),
                                    platform.getInfo<CL_PLATFORM_VERSION>()});
         path = dir + "/" + name + ".clbin";
-        program_from_cache_ = build_from_binary(load_program_binary(path, name), options);
-        if (program_from_cache_) return;
+        if (auto cached = build_from_binary(load_program_binary(path, name), options)) {
+            if (bits == 32) program_from_cache_ = true;
+            return *cached;
+        }
     }
-    program_ = cl::Program(context_, source);
+    cl::Program program(context_, source);
     try {
-        program_.build(std::vector<cl::Device>{device_}, options.c_str());
+        program.build(std::vector<cl::Device>{device_}, options.c_str());
     } catch (const cl::Error&) {
-        std::string log = program_.getBuildInfo<CL_PROGRAM_BUILD_LOG>(device_);
+        std::string log = program.getBuildInfo<CL_PROGRAM_BUILD_LOG>(device_);
         for (char& c : log)
             if (c == '\n') c = ' ';
         throw Error("OpenCL kernel build failed on '" + info_.name + "': " + log);
     }
-    if (path.empty()) return;
-    const auto binaries = program_.getInfo<CL_PROGRAM_BINARIES>();
+    if (path.empty()) return program;
+    const auto binaries = program.getInfo<CL_PROGRAM_BINARIES>();
     if (binaries.size() == 1 && !binaries[0].empty()) store_program_binary(path, name, binaries[0]);
+    return program;
+}
+
+void OpenCLRuntime::set_fine_key_bits(int bits) {
+    if (bits != 32 && bits != 64) throw Error("internal: fine keys are 32 or 64 bits, not " + std::to_string(bits));
+    fine_key_bits_ = bits;
 }
 
 cl::Kernel& OpenCLRuntime::kernel(const std::string& name) {
-    auto it = kernels_.find(name);
-    if (it == kernels_.end()) it = kernels_.emplace(name, cl::Kernel(program_, name.c_str())).first;
-    return it->second;
+    const auto id = std::make_pair(fine_key_bits_, name);
+    auto it = kernels_.find(id);
+    if (it != kernels_.end()) return it->second;
+    auto program = programs_.find(fine_key_bits_);
+    if (program == programs_.end()) program = programs_.emplace(fine_key_bits_, build_program(fine_key_bits_)).first;
+    return kernels_.emplace(id, cl::Kernel(program->second, name.c_str())).first->second;
 }
 
 void OpenCLRuntime::set_stage(const char* stage) {

@@ -23,7 +23,12 @@ public:
     const DeviceInfo& info() const { return info_; }
     cl::Context& context() { return context_; }
     cl::CommandQueue& queue() { return queue_; }
+    /// Kernel `name` of the program built for the current fine-key width (set_fine_key_bits).
     cl::Kernel& kernel(const std::string& name);
+    /// Which program the kernels come from: FINE_KEY_BITS 32 (the default, built at start) or 64
+    /// (built on first use, for lattices too wide for 32-bit keys: lattice::KeyLayout). Only the
+    /// fine-point kernels differ between the two.
+    void set_fine_key_bits(int bits);
 
     /// Candidate particles a work-group gathers into local memory (MAX_CANDIDATES in the kernels):
     /// two float4 lists of them fit the device's local memory (48 KiB on many GPUs), at most 2048.
@@ -85,8 +90,10 @@ public:
     void recover() noexcept;
 
 private:
-    void build_program();
-    bool build_from_binary(std::optional<std::vector<unsigned char>> binary, const std::string& options);
+    /// The program of fine-key width `bits`: from the on-disk cache when it holds it, else from source.
+    cl::Program build_program(int bits);
+    std::optional<cl::Program> build_from_binary(std::optional<std::vector<unsigned char>> binary,
+                                                 const std::string& options);
     bool serial_gather() const;
     void maybe_fail(const char* call);
     cl::Buffer allocate(BufferPool::Entry& e, std::size_t bytes, const char* what);
@@ -96,8 +103,9 @@ private:
     cl::Device device_;
     cl::Context context_;
     cl::CommandQueue queue_;
-    cl::Program program_;
-    std::map<std::string, cl::Kernel> kernels_;
+    std::map<int, cl::Program> programs_;                    ///< by fine-key width
+    std::map<std::pair<int, std::string>, cl::Kernel> kernels_;  ///< by fine-key width and name
+    int fine_key_bits_ = 32;
     std::vector<std::pair<std::string, cl::Event>> events_;
     std::map<std::string, double> kernel_ms_;
     std::size_t work_group_ = kDefaultWorkGroup;

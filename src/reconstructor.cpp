@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <cstdio>
+#include <cstring>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -134,6 +135,12 @@ Grid make_grid(const Params& p, const Bounds& b) {
     g.frame.origin = glm::vec3(g.origin);
     glm::dvec3 extent = (hi - g.origin) / double(g.frame.step) + 3.0 * g.frame.coarse_steps;
     g.extent_steps = std::max({extent.x, extent.y, extent.z});
+    // 32-bit fine-point keys when the lattice fits them, with two more coarse cells of margin for
+    // band closure (device_stages.cpp checks every cell against it); TRILEVEL_FINE_KEYS=64 keeps the
+    // 64-bit ones (tests: both give the same mesh).
+    const glm::ivec3 top = glm::ivec3(glm::min(glm::ceil(extent) + 2.0 * g.frame.coarse_steps, glm::dvec3(lattice::kMaxCoord)));
+    const char* keys = std::getenv("TRILEVEL_FINE_KEYS");
+    if (!(keys && std::strcmp(keys, "64") == 0)) g.frame.keys = lattice::key_layout_for(top);
     return g;
 }
 
@@ -155,7 +162,8 @@ std::vector<CoarseCell> merge_cells(const std::vector<CoarseCell>& a, const std:
 }
 
 void count_points(const FinePointMap& map, Stats& s) {
-    for (std::uint64_t k : map.keys()) {
+    for (std::size_t slot = 0; slot < map.capacity(); ++slot) {
+        const std::uint64_t k = map.key_at(slot);
         if (k == lattice::kEmptyKey) continue;
         glm::ivec3 p = lattice::unpack(k);
         bool even = ((p.x | p.y | p.z) & 1) == 0;

@@ -183,7 +183,7 @@ TEST_CASE("transition continuity matches a brute-force reference on random mixed
         apply_transition_continuity(cells, frame, field);
         int mismatches = 0;
         for (std::size_t s = 0; s < field.capacity(); ++s) {
-            const std::uint64_t key = field.keys()[s];
+            const std::uint64_t key = field.key_at(s);
             if (key == lattice::kEmptyKey) continue;
             const glm::ivec3 p = lattice::unpack(key);
             bool on_level2_boundary = false;

@@ -88,6 +88,21 @@ TEST_CASE("output is bit-identical across runs, reconstructors and work-group si
     }
 }
 
+TEST_CASE("32-bit fine-point keys give the mesh of 64-bit ones", "[e2e][determinism]") {
+    const float r = 0.025f;
+    const ParticleSet s = generate_scene("pool-and-drop", r, 3);
+    for (Mode mode : {Mode::Adaptive, Mode::Uniform}) {
+        Stats narrow_stats;
+        const Mesh narrow = shared_reconstructor().reconstruct(s.positions.data(), s.size(), params(r, mode), &narrow_stats);
+        ::setenv("TRILEVEL_FINE_KEYS", "64", 1);  // test hook (reconstructor.cpp, make_grid)
+        Stats wide_stats;
+        const Mesh wide = shared_reconstructor().reconstruct(s.positions.data(), s.size(), params(r, mode), &wide_stats);
+        ::unsetenv("TRILEVEL_FINE_KEYS");
+        CHECK(narrow_stats.fine_points == wide_stats.fine_points);
+        REQUIRE(same_mesh(narrow, wide));
+    }
+}
+
 TEST_CASE("positions handed over give the same mesh as positions lent, also with normals", "[e2e]") {
     const float r = 0.025f;
     ParticleSet s = generate_scene("pool-and-drop", r, 3);
