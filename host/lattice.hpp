@@ -56,6 +56,7 @@ struct KeyLayout {
     }
     std::uint64_t empty() const { return wide ? kEmptyKey : 0xffffffffull; }
     std::size_t key_bytes() const { return wide ? 8 : 4; }
+    bool operator==(const KeyLayout&) const = default;
     bool holds(glm::ivec3 p) const { return glm::all(glm::greaterThanEqual(p, glm::ivec3(0))) && glm::all(glm::lessThanEqual(p, max_coord)); }
 };
 

@@ -93,12 +93,17 @@ inline long hash_insert(volatile __global ulong* keys, ulong capacity, ulong key
 
 // hash_insert keeping the table's counters: stats[0] = overflow flag, stats[1] = keys newly
 // inserted (the host grows the table when it passes its load limit: 1/2, fine points 0.8).
-inline long hash_insert_counted(volatile __global ulong* keys, ulong capacity, ulong key, volatile __global int* stats) {
-    int created;
-    const long s = hash_insert(keys, capacity, key, &created);
+// The counters' side of an insert that returned slot `s` (-1: full) and `created`.
+inline long count_insert(long s, int created, volatile __global int* stats) {
     if (created) atomic_inc(&stats[1]);
     if (s < 0) atomic_or(&stats[0], 1);
     return s;
+}
+
+inline long hash_insert_counted(volatile __global ulong* keys, ulong capacity, ulong key, volatile __global int* stats) {
+    int created;
+    const long s = hash_insert(keys, capacity, key, &created);
+    return count_insert(s, created, stats);
 }
 
 // Test and maintenance kernel: inserts `n` keys, recording each key's slot.
@@ -169,9 +174,7 @@ inline long fine_insert_counted(volatile __global fine_key_t* keys, ulong capaci
                                 volatile __global int* stats) {
     int created;
     const long s = fine_insert(keys, capacity, p, shift, &created);
-    if (created) atomic_inc(&stats[1]);
-    if (s < 0) atomic_or(&stats[0], 1);
-    return s;
+    return count_insert(s, created, stats);
 }
 
 // Inserts `n` lattice points given as packed keys (pack_key) into the fine-point table, recording

@@ -363,7 +363,7 @@ cl_uint2 key_shifts(const lattice::KeyLayout& l) { return {{cl_uint(l.y_shift), 
 /// (make_grid sizes it with margin: a point outside would alias another one, so this is checked).
 void adopt_layout(FinePoints& p, const LatticeFrame& frame, const std::vector<CoarseCell>& cells) {
     if (p.hash.capacity == 0) p.layout = frame.keys;
-    else if (p.layout.wide != frame.keys.wide || p.layout.max_coord != frame.keys.max_coord)
+    else if (p.layout != frame.keys)
         throw Error("internal: a fine-point table is refined with a lattice of another key layout");
     for (const CoarseCell& c : cells)
         if (!p.layout.holds(c.coord * frame.coarse_steps) || !p.layout.holds((c.coord + 1) * frame.coarse_steps))
