@@ -199,7 +199,8 @@ cl::Program OpenCLRuntime::build_program(int bits) {
     }
     if (path.empty()) return program;
     const auto binaries = program.getInfo<CL_PROGRAM_BINARIES>();
-    if (binaries.size() == 1 && !binaries[0].empty()) store_program_binary(path, name, binaries[0]);
+    if (binaries.size() == 1 && !binaries[0].empty() && store_program_binary(path, name, binaries[0]))
+        prune_program_cache(dir, program_cache_max_bytes(), name + ".clbin");
     return program;
 }
 

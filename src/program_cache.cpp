@@ -2,13 +2,17 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
+#include <cctype>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <system_error>
+#include <tuple>
 
 namespace trilevel {
 namespace {
@@ -28,6 +32,13 @@ std::string header(const std::string& name, std::uint64_t size, std::uint64_t ch
     h.append(reinterpret_cast<const char*>(&size), sizeof size);
     h.append(reinterpret_cast<const char*>(&checksum), sizeof checksum);
     return h;
+}
+
+namespace fs = std::filesystem;
+
+bool is_entry_name(const std::string& file) {
+    return file.size() == 16 + 6 && file.ends_with(".clbin") &&
+           std::all_of(file.begin(), file.begin() + 16, [](unsigned char c) { return std::isxdigit(c); });
 }
 
 }  // namespace
@@ -65,6 +76,8 @@ std::optional<std::vector<unsigned char>> load_program_binary(const std::string&
     if (!in.read(reinterpret_cast<char*>(payload.data()), std::streamsize(size)) ||
         fnv1a(payload.data(), payload.size()) != checksum)
         return std::nullopt;
+    std::error_code ec;
+    fs::last_write_time(path, fs::file_time_type::clock::now(), ec);  // recently used (prune order)
     return payload;
 }
 
@@ -88,6 +101,52 @@ bool store_program_binary(const std::string& path, const std::string& name, cons
     if (!ec) return true;
     std::filesystem::remove(tmp, ec);
     return false;
+}
+
+std::uint64_t program_cache_max_bytes() {
+    const char* v = std::getenv("TRILEVEL_CACHE_MAX_MB");
+    if (!v || !*v) return kProgramCacheMaxBytes;
+    char* end = nullptr;
+    const unsigned long long mb = std::strtoull(v, &end, 10);
+    if (*end != '\0' || *v == '-' || mb > (1ull << 40)) return kProgramCacheMaxBytes;  // not a size: the default
+    return std::uint64_t(mb) << 20;
+}
+
+std::size_t prune_program_cache(const std::string& dir, std::uint64_t max_bytes, const std::string& keep) {
+    struct Entry {
+        fs::file_time_type time;
+        std::string name;
+        std::uint64_t size;
+    };
+    std::vector<Entry> entries;
+    std::vector<fs::path> stale;
+    const auto hour_ago = fs::file_time_type::clock::now() - std::chrono::hours(1);
+    std::error_code ec;
+    for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+        std::error_code e;
+        if (!it->is_regular_file(e) || e) continue;
+        const std::string name = it->path().filename().string();
+        const auto time = it->last_write_time(e);
+        if (e) continue;
+        if (is_entry_name(name)) {
+            const std::uint64_t size = it->file_size(e);
+            if (!e) entries.push_back({time, name, size});
+        } else if (name.find(".clbin.tmp.") != std::string::npos && time < hour_ago) {
+            stale.push_back(it->path());
+        }
+    }
+    // Newest first; the entry in use counts first of all.
+    std::sort(entries.begin(), entries.end(), [&](const Entry& a, const Entry& b) {
+        return std::make_tuple(a.name != keep, b.time, a.name) < std::make_tuple(b.name != keep, a.time, b.name);
+    });
+    std::uint64_t total = 0;
+    for (const Entry& e : entries) {
+        total += e.size;
+        if (e.name != keep && total > max_bytes) stale.push_back(fs::path(dir) / e.name);
+    }
+    std::size_t removed = 0;
+    for (const fs::path& p : stale) removed += fs::remove(p, ec) && !ec;
+    return removed;
 }
 
 }  // namespace trilevel

@@ -1,7 +1,10 @@
 // The on-disk cache of program binaries (src/program_cache.hpp): entries round-trip, damaged or
 // foreign ones are refused, and a runtime built from a cached binary meshes like one built from
 // source.
+#include <algorithm>
+#include <chrono>
 #include <filesystem>
+#include <string>
 #include <vector>
 
 #include "cli_test_support.hpp"
@@ -27,7 +30,79 @@ std::vector<std::filesystem::path> entries(const TempDir& dir) {
     return out;
 }
 
+std::vector<std::string> names(const TempDir& dir) {
+    std::vector<std::string> out;
+    for (const auto& e : entries(dir)) out.push_back(e.filename().string());
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
+/// Writes `bytes` bytes to `dir/name`, last modified `age` ago.
+void put_file(const TempDir& dir, const std::string& name, std::size_t bytes, std::chrono::minutes age) {
+    write_bytes(dir.file(name), std::string(bytes, 'x'));
+    std::filesystem::last_write_time(dir.file(name), std::filesystem::file_time_type::clock::now() - age);
+}
+
+std::string entry(char c) { return std::string(16, c) + ".clbin"; }
+
 }  // namespace
+
+TEST_CASE("program cache pruning drops the least recently used entries and dead writers' files only",
+          "[program_cache]") {
+    using std::chrono::minutes;
+    TempDir tmp;
+    put_file(tmp, entry('1'), 1000, minutes(500));  // oldest
+    put_file(tmp, entry('2'), 1000, minutes(400));
+    put_file(tmp, entry('3'), 1000, minutes(300));
+    put_file(tmp, entry('4'), 1000, minutes(200));
+    put_file(tmp, entry('5'), 1000, minutes(100));  // newest
+    put_file(tmp, "notes.txt", 100000, minutes(900));              // not ours: never touched
+    put_file(tmp, "abc.clbin", 1000, minutes(900));                // not an entry name: never touched
+    put_file(tmp, entry('6') + ".tmp.77.0", 1000, minutes(120));   // a writer that died
+    put_file(tmp, entry('7') + ".tmp.78.0", 1000, minutes(1));     // a writer still at work
+
+    SECTION("within the limit nothing but the dead writer's file goes") {
+        CHECK(prune_program_cache(tmp.path.string(), 5000, entry('5')) == 1);
+        CHECK(names(tmp).size() == 8);
+    }
+    SECTION("over it, the oldest go first, and the entry in use stays however old") {
+        CHECK(prune_program_cache(tmp.path.string(), 2500, entry('1')) == 4);
+        CHECK(names(tmp) == std::vector<std::string>{entry('1'), entry('5'), entry('7') + ".tmp.78.0", "abc.clbin",
+                                                     "notes.txt"});
+    }
+    SECTION("a limit of 0 keeps the entry in use alone") {
+        CHECK(prune_program_cache(tmp.path.string(), 0, entry('3')) == 5);
+        CHECK(names(tmp) == std::vector<std::string>{entry('3'), entry('7') + ".tmp.78.0", "abc.clbin", "notes.txt"});
+    }
+    SECTION("a load makes an entry the most recently used") {
+        const std::string name = std::string(16, '1');
+        REQUIRE(store_program_binary(tmp.file(entry('1')), name, std::vector<unsigned char>(990, 7)));
+        std::filesystem::last_write_time(tmp.file(entry('1')), std::filesystem::file_time_type::clock::now() - minutes(500));
+        REQUIRE(load_program_binary(tmp.file(entry('1')), name));
+        prune_program_cache(tmp.path.string(), 2500, entry('5'));
+        CHECK(names(tmp) == std::vector<std::string>{entry('1'), entry('5'), entry('7') + ".tmp.78.0", "abc.clbin",
+                                                     "notes.txt"});
+    }
+    SECTION("a missing directory prunes nothing") {
+        CHECK(prune_program_cache(tmp.file("absent"), 0, entry('1')) == 0);
+    }
+}
+
+TEST_CASE("the cache size limit comes from TRILEVEL_CACHE_MAX_MB when that is a size", "[program_cache]") {
+    CHECK(program_cache_max_bytes() == kProgramCacheMaxBytes);
+    {
+        ScopedEnv env("TRILEVEL_CACHE_MAX_MB", "3");
+        CHECK(program_cache_max_bytes() == 3u << 20);
+    }
+    {
+        ScopedEnv env("TRILEVEL_CACHE_MAX_MB", "0");
+        CHECK(program_cache_max_bytes() == 0);
+    }
+    for (const char* bad : {"", "-1", "12MB", "lots"}) {
+        ScopedEnv env("TRILEVEL_CACHE_MAX_MB", bad);
+        CHECK(program_cache_max_bytes() == kProgramCacheMaxBytes);
+    }
+}
 
 TEST_CASE("program cache entries round-trip, and truncated, altered or foreign ones are refused", "[program_cache]") {
     TempDir tmp;
@@ -94,5 +169,14 @@ TEST_CASE("a runtime loads its program from the disk cache and meshes as one bui
         OpenCLRuntime again(-1);
         CHECK(again.program_from_cache());
         REQUIRE(entries(tmp).size() == 1);
+    }
+    SECTION("a runtime that stores an entry prunes the directory to the limit") {
+        put_file(tmp, entry('a'), 4096, std::chrono::minutes(60));  // another driver's entry, say
+        const std::string path = stored[0].string(), name = stored[0].stem().string();
+        REQUIRE(store_program_binary(path, name, std::vector<unsigned char>(4096, 0x5a)));  // forces a rebuild
+        ScopedEnv limit("TRILEVEL_CACHE_MAX_MB", "0");
+        OpenCLRuntime rebuilt(-1);
+        CHECK_FALSE(rebuilt.program_from_cache());
+        REQUIRE(entries(tmp) == stored);  // the other entry went, its own stayed
     }
 }
