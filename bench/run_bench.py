@@ -450,8 +450,10 @@ def write_report(path, args, datasets, tools, rows, summary, checks, compares, m
     add("")
     add(f"- trilevel: `{meta['trilevel']}` built from git `{meta['git']}`")
     add(f"- machine: {meta['cpu']}, {meta['nproc']} cores, {meta['mem_gb']:.0f} GiB RAM, {meta['os']}")
-    add(f"- machine float throughput (bench/machine_flops.cpp, FP32 FMA, best of 3): "
+    add(f"- machine float throughput (bench/machine_flops.cpp, FP32 FMA, per CPU second of each thread, best of 3): "
         + (f"**{meta['flops']['gflops']:.0f} GFLOP/s with 2 threads**, {meta['flops']['gflops_1thread']:.0f} GFLOP/s with 1"
+           + (f" ({meta['flops']['wall_gflops']:.0f} GFLOP/s by wall time: what the shared cores gave)"
+              if "wall_gflops" in meta["flops"] else "")
            if meta["flops"] else "not measured"))
     if meta.get("loadavg_start"):
         la = meta["loadavg_start"]
