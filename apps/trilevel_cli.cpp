@@ -22,6 +22,7 @@
 #endif
 
 #include <CLI/CLI.hpp>
+#include <tbb/global_control.h>
 
 #include "frame_sequence.hpp"
 #include "io/io_common.hpp"
@@ -87,7 +88,7 @@ void check_output(const std::string& path, const std::vector<std::string>& exten
 
 struct ReconstructArgs {
     std::string input, output, radius, kernel_radius = "4", mode = "adaptive", cell = "1", threshold, memory,
-        stats, hysteresis, level2_tolerance;
+        stats, hysteresis, level2_tolerance, threads;
     std::string start, end;  // frame sequences: range of frame numbers
     int device = -1;
     bool color_levels = false, quiet = false, skip_existing = false, drop_invalid = false;
@@ -123,6 +124,19 @@ trilevel::Params make_params(const ReconstructArgs& a) {
     else if (a.normals == "area") p.normals = trilevel::NormalMode::Area;
     else if (!a.normals.empty()) throw UsageError("--normals must be gradient or area (or given alone), got '" + a.normals + "'");
     return p;
+}
+
+/// --threads N: at most N CPU threads, for the host stages (TBB; the returned limit holds while it
+/// lives) and for PoCL's CPU device (POCL_MAX_PTHREAD_COUNT, which PoCL reads when it starts: this
+/// runs before any OpenCL call). GPU drivers keep their own threads. Empty: every core.
+std::optional<tbb::global_control> limit_threads(const std::string& text) {
+    if (text.empty()) return std::nullopt;
+    if (text.size() > 4 || !std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; }) ||
+        std::stoi(text) < 1)
+        throw UsageError("--threads must be a whole number from 1 to 9999, got '" + text + "'");
+    ::setenv("POCL_MAX_PTHREAD_COUNT", text.c_str(), 1);
+    return std::optional<tbb::global_control>(std::in_place, tbb::global_control::max_allowed_parallelism,
+                                              std::size_t(std::stoi(text)));
 }
 
 /// A frame number option (--start, --end): a non-negative integer.
@@ -199,6 +213,7 @@ void reconstruct_file(std::optional<trilevel::Reconstructor>& rec, const trileve
 
 int run_reconstruct(const ReconstructArgs& a) {
     const trilevel::Params params = make_params(a);
+    const auto thread_limit = limit_threads(a.threads);
     const bool sequence = trilevel::cli::is_sequence_pattern(a.input);
     if (sequence && !trilevel::cli::is_sequence_pattern(a.output))
         throw UsageError("-o must contain '{}' when the input is a frame sequence");
@@ -412,6 +427,7 @@ int run(int argc, char** argv) {
                     "Adaptive mode: also refine level-2 cells whose lattice misses the field at a cube centre by more "
                     "than this many r (default 0 = off; 0.5 with --curvature-threshold 8 for resampled particles)");
     rec->add_option("--device", ra.device, "OpenCL device index (see `trilevel devices`)");
+    rec->add_option("--threads", ra.threads, "CPU threads for the host stages and PoCL (default: every core)");
     rec->add_option("--stats", ra.stats, "Write statistics as JSON");
     rec->add_flag("--color-levels", ra.color_levels, "PLY: colour vertices by level (green 2, blue 3)");
     auto* normals = rec->add_option("--normals", ra.normals,

@@ -12,6 +12,9 @@
 
 #include <sys/resource.h>
 
+#include <tbb/global_control.h>
+#include <tbb/task_arena.h>
+
 #include "band_closure.hpp"
 #include "device_stages.hpp"
 #include "domain_split.hpp"
@@ -366,6 +369,8 @@ void accumulate(Stats& into, const Stats& s) {
     into.fine_points_level3 += s.fine_points_level3;
     into.device_memory_bytes = std::max(into.device_memory_bytes, s.device_memory_bytes);
     into.device = s.device;
+    into.device_compute_units = s.device_compute_units;
+    into.host_threads = s.host_threads;
     auto add = [](auto& list, const auto& more) {
         for (const auto& [name, ms] : more) {
             auto it = std::find_if(list.begin(), list.end(), [&](const auto& e) { return e.first == name; });
@@ -454,6 +459,9 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     const double host = double(host_budget(p));
     s.particles = n;
     s.device = rt.info().name;
+    s.device_compute_units = rt.info().compute_units;
+    s.host_threads = unsigned(std::min<std::size_t>(std::size_t(tbb::this_task_arena::max_concurrency()),
+                                                   tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)));
     rt.reset_budget(p.memory_limit_bytes);
 
     rt.set_stage("binning");

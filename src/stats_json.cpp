@@ -35,6 +35,7 @@ std::string stats_to_json(const Stats& s, const Params& p) {
                             {"share", s.level_cells_compared ? double(s.level_flips) / double(s.level_cells_compared) : 0.0},
                             {"held_by_hysteresis", s.level_held}};
     j["device"] = s.device;
+    j["threads"] = {{"host", s.host_threads}, {"device_compute_units", s.device_compute_units}};
     j["parameters"] = {{"particle_radius", p.particle_radius},
                        {"kernel_radius", p.kernel_radius},
                        {"mode", p.mode == Mode::Adaptive ? "adaptive" : "uniform"},

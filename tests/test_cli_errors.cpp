@@ -59,6 +59,9 @@ TEST_CASE("CLI: reconstruct rejects bad inputs and parameters before writing any
     require_cli_error(tmp, base + "-r 0.025 --curvature-threshold nan", out, "curvature threshold");
     require_cli_error(tmp, base + "-r 0.025 --mode fancy", out, "--mode must be adaptive or uniform");
     require_cli_error(tmp, base + "-r 0.025 --memory-limit 2Q", out, "--memory-limit");
+    require_cli_error(tmp, base + "-r 0.025 --threads 0", out, "--threads must be a whole number");
+    require_cli_error(tmp, base + "-r 0.025 --threads -2", out, "--threads");
+    require_cli_error(tmp, base + "-r 0.025 --threads two", out, "--threads must be a whole number");
     require_cli_error(tmp, base, out, "radius");
     require_cli_error(tmp, "reconstruct '" + in + "' -o '" + tmp.file("missing/out.ply") + "' -r 0.025", tmp.file("missing/out.ply"),
                       "does not exist");
@@ -136,5 +139,15 @@ TEST_CASE("CLI: two runs write bit-identical mesh files", "[cli][determinism]") 
         const std::string a = slurp(tmp.file("a.ply")), b = slurp(tmp.file("b.ply"));
         REQUIRE(a.size() > 1000);
         REQUIRE(a == b);
+        // One thread for the host stages and PoCL: other chunks per thread, the same bits (DESIGN §6).
+        REQUIRE(run_cli(tmp, "reconstruct '" + tmp.file("p.xyz") + "' -r 0.025 " + mode + " -q --threads 1 -o '" +
+                                 tmp.file("c.ply") + "' --stats '" + tmp.file("c.json") + "'")
+                    .code == 0);
+        REQUIRE(slurp(tmp.file("c.ply")) == a);
+        const std::string stats = slurp(tmp.file("c.json"));
+        CHECK(stats.find("\"host\": 1,") != std::string::npos);  // the limit reached the host stages
+        // and PoCL (a GPU keeps its compute units)
+        if (stats.find("\"device\": \"pthread-") != std::string::npos || stats.find("\"device\": \"cpu-") != std::string::npos)
+            CHECK(stats.find("\"device_compute_units\": 1\n") != std::string::npos);
     }
 }

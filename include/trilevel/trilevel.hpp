@@ -129,6 +129,8 @@ struct Stats {
     std::size_t level_flips = 0;
     std::size_t level_held = 0;
     std::string device;                    ///< the OpenCL device that ran the kernels
+    unsigned device_compute_units = 0;     ///< its compute units (PoCL: threads, POCL_MAX_PTHREAD_COUNT)
+    unsigned host_threads = 0;             ///< threads the host stages could use (the caller's TBB arena)
 };
 
 /// Writes the statistics as a JSON object (keys as in README "Statistics"), with `params` under
