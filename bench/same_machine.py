@@ -2,10 +2,12 @@
 """trilevel on every OpenCL device of one machine vs splashsurf on the same machine's CPU.
 
     python3 bench/same_machine.py --trilevel build/bin/trilevel --data DIR --reps 5 \
-        [--splashsurf 'python3 -m pysplashsurf'] [--threads 2,16] [--out RESULTS_DEVICE.md]
+        [--splashsurf 'python3 -m pysplashsurf'] [--threads 2,16] [--trilevel-threads] [--out RESULTS_DEVICE.md]
 
 For a machine with a GPU (run_bench.py covers the 2-core CI machine, where PoCL is the only
-device). DIR holds the datasets as run_bench.py caches them (db23, its x8 and x64 resamplings,
+device). With --trilevel-threads, trilevel runs with `--threads N` instead of every core: adaptive at each
+of those thread counts, uniform r at the largest (N limits its host stages and PoCL), so every tool is compared at the same
+number of threads. DIR holds the datasets as run_bench.py caches them (db23, its x8 and x64 resamplings,
 pool-and-drop); each comes with its particle radius below. Every configuration runs once as a
 warm-up (fills the driver's kernel cache), then all run interleaved --reps times. Wall time is
 the whole process as a user sees it (file read and write included), peak memory the child's max
@@ -51,12 +53,15 @@ def configs(args, tmp):
         src = os.path.join(args.data, fname)
         if not os.path.exists(src):
             continue
+        counts = [int(n) for n in args.threads.split(",")] if args.trilevel_threads else [None]
         for idx, dname in devs:
-            for mode in (["adaptive"], ["uniform", "--cell", "1"]):
-                label = f"trilevel {' '.join(mode)} on {dname}"
-                stats = os.path.join(tmp, f"{name}-{idx}-{mode[0]}.json")
+            # adaptive at every thread count (the peers' too), uniform r at the largest only (the baseline)
+            runs = [(["adaptive"], n) for n in counts] + [(["uniform", "--cell", "1"], counts[-1])]
+            for mode, n in runs:
+                label = f"trilevel {' '.join(mode)} on {dname}" + (f", --threads {n}" if n else "")
+                stats = os.path.join(tmp, f"{name}-{idx}-{mode[0]}-{n}.json")
                 cmd = [args.trilevel, "reconstruct", src, "-r", str(r), "--mode", *mode, "--device", str(idx),
-                       "-o", os.path.join(tmp, "out.ply"), "--stats", stats]
+                       "-o", os.path.join(tmp, "out.ply"), "--stats", stats] + (["--threads", str(n)] if n else [])
                 out.append((label, name, cmd, stats))
         if args.splashsurf:
             for n in args.threads.split(","):
@@ -74,6 +79,8 @@ def main():
     ap.add_argument("--splashsurf", default="")
     ap.add_argument("--threads", default="2")
     ap.add_argument("--devices", default="", help="comma-separated device indices (default: all)")
+    ap.add_argument("--trilevel-threads", action="store_true",
+                    help="run trilevel with --threads at each of --threads' counts too (host stages and PoCL)")
     ap.add_argument("--out", default="")
     ap.add_argument("--timeout", type=float, default=600, help="seconds per run before it is killed")
     args = ap.parse_args()
