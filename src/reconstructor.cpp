@@ -12,7 +12,9 @@
 
 #include <sys/resource.h>
 
+#include <tbb/blocked_range.h>
 #include <tbb/global_control.h>
+#include <tbb/parallel_reduce.h>
 #include <tbb/task_arena.h>
 
 #include "band_closure.hpp"
@@ -164,14 +166,24 @@ std::vector<CoarseCell> merge_cells(const std::vector<CoarseCell>& a, const std:
     return out;
 }
 
+/// Unique fine points by level: all coordinates even = on the level-2 lattice. A pass over the
+/// whole table, so in parallel (serial, it was 25 ms of x64's triangulation stage at 16 threads).
 void count_points(const FinePointMap& map, Stats& s) {
-    for (std::size_t slot = 0; slot < map.capacity(); ++slot) {
-        const std::uint64_t k = map.key_at(slot);
-        if (k == lattice::kEmptyKey) continue;
-        glm::ivec3 p = lattice::unpack(k);
-        bool even = ((p.x | p.y | p.z) & 1) == 0;
-        (even ? s.fine_points_level2 : s.fine_points_level3)++;
-    }
+    using Counts = std::pair<std::size_t, std::size_t>;  // level 2, level 3
+    const Counts c = tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, map.capacity(), 1 << 16), Counts{0, 0},
+        [&](const tbb::blocked_range<std::size_t>& r, Counts c) {
+            for (std::size_t slot = r.begin(); slot != r.end(); ++slot) {
+                const std::uint64_t k = map.key_at(slot);
+                if (k == lattice::kEmptyKey) continue;
+                const glm::ivec3 p = lattice::unpack(k);
+                (((p.x | p.y | p.z) & 1) == 0 ? c.first : c.second)++;
+            }
+            return c;
+        },
+        [](Counts a, Counts b) { return Counts{a.first + b.first, a.second + b.second}; });
+    s.fine_points_level2 = c.first;
+    s.fine_points_level3 = c.second;
     s.fine_points = s.fine_points_level2 + s.fine_points_level3;
 }
 
