@@ -182,7 +182,7 @@ cl::Program OpenCLRuntime::build_program(int bits) {
         name = program_cache_name({source, options, info_.name, device_.getInfo<CL_DEVICE_VERSION>(),
                                    device_.getInfo<CL_DRIVER_VERSION>(), platform.getInfo<CL_PLATFORM_NAME>(),
                                    platform.getInfo<CL_PLATFORM_VERSION>()});
-        path = dir + "/" + name + ".clbin";
+        path = program_cache_path(dir, name);
         if (auto cached = build_from_binary(load_program_binary(path, name), options)) {
             if (bits == 32) program_from_cache_ = true;
             return *cached;
@@ -200,7 +200,7 @@ cl::Program OpenCLRuntime::build_program(int bits) {
     if (path.empty()) return program;
     const auto binaries = program.getInfo<CL_PROGRAM_BINARIES>();
     if (binaries.size() == 1 && !binaries[0].empty() && store_program_binary(path, name, binaries[0]))
-        prune_program_cache(dir, program_cache_max_bytes(), name + ".clbin");
+        prune_program_cache(dir, program_cache_max_bytes(), name);
     return program;
 }
 

@@ -11,8 +11,8 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <string_view>
 #include <system_error>
-#include <tuple>
 
 namespace trilevel {
 namespace {
@@ -36,8 +36,12 @@ std::string header(const std::string& name, std::uint64_t size, std::uint64_t ch
 
 namespace fs = std::filesystem;
 
-bool is_entry_name(const std::string& file) {
-    return file.size() == 16 + 6 && file.ends_with(".clbin") &&
+constexpr std::string_view kEntrySuffix = ".clbin";  // entry files: <name><suffix>
+constexpr std::string_view kTemporaryMark = ".tmp.";  // an entry's temporary: its file, the mark, <pid>.<n>
+
+/// Whether `file` is an entry's file name: a program_cache_name (16 hex digits) and the suffix.
+bool is_entry_file(const std::string& file) {
+    return file.size() == 16 + kEntrySuffix.size() && file.ends_with(kEntrySuffix) &&
            std::all_of(file.begin(), file.begin() + 16, [](unsigned char c) { return std::isxdigit(c); });
 }
 
@@ -60,6 +64,10 @@ std::string program_cache_name(const std::vector<std::string_view>& identity) {
     char buf[17];
     std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
     return buf;
+}
+
+std::string program_cache_path(const std::string& dir, const std::string& name) {
+    return dir + "/" + name + std::string(kEntrySuffix);
 }
 
 std::optional<std::vector<unsigned char>> load_program_binary(const std::string& path, const std::string& name) {
@@ -86,7 +94,7 @@ bool store_program_binary(const std::string& path, const std::string& name, cons
     std::error_code ec;
     const std::filesystem::path target(path);
     if (target.has_parent_path()) std::filesystem::create_directories(target.parent_path(), ec);
-    const std::string tmp = path + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
+    const std::string tmp = path + std::string(kTemporaryMark) + std::to_string(::getpid()) + "." + std::to_string(counter++);
     {
         std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
         const std::string h = header(name, binary.size(), fnv1a(binary.data(), binary.size()));
@@ -115,37 +123,34 @@ std::uint64_t program_cache_max_bytes() {
 std::size_t prune_program_cache(const std::string& dir, std::uint64_t max_bytes, const std::string& keep) {
     struct Entry {
         fs::file_time_type time;
-        std::string name;
+        std::string file;
         std::uint64_t size;
     };
-    std::vector<Entry> entries;
-    std::vector<fs::path> stale;
+    const std::string keep_file = fs::path(program_cache_path(dir, keep)).filename().string();
+    const std::string temporary_mark = std::string(kEntrySuffix) + std::string(kTemporaryMark);
     const auto hour_ago = fs::file_time_type::clock::now() - std::chrono::hours(1);
+    std::vector<Entry> others;  // every entry but the one in use
+    std::vector<fs::path> remove;
+    std::uint64_t total = 0;    // bytes kept so far: the entry in use first
     std::error_code ec;
     for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
         std::error_code e;
         if (!it->is_regular_file(e) || e) continue;
-        const std::string name = it->path().filename().string();
+        const std::string file = it->path().filename().string();
         const auto time = it->last_write_time(e);
+        const std::uint64_t size = it->file_size(e);
         if (e) continue;
-        if (is_entry_name(name)) {
-            const std::uint64_t size = it->file_size(e);
-            if (!e) entries.push_back({time, name, size});
-        } else if (name.find(".clbin.tmp.") != std::string::npos && time < hour_ago) {
-            stale.push_back(it->path());
-        }
+        if (file == keep_file) total += size;
+        else if (is_entry_file(file)) others.push_back({time, file, size});
+        else if (file.find(temporary_mark) != std::string::npos && time < hour_ago) remove.push_back(it->path());
     }
-    // Newest first; the entry in use counts first of all.
-    std::sort(entries.begin(), entries.end(), [&](const Entry& a, const Entry& b) {
-        return std::make_tuple(a.name != keep, b.time, a.name) < std::make_tuple(b.name != keep, a.time, b.name);
+    std::sort(others.begin(), others.end(), [](const Entry& a, const Entry& b) {  // newest first, ties by name
+        return a.time != b.time ? a.time > b.time : a.file < b.file;
     });
-    std::uint64_t total = 0;
-    for (const Entry& e : entries) {
-        total += e.size;
-        if (e.name != keep && total > max_bytes) stale.push_back(fs::path(dir) / e.name);
-    }
+    for (const Entry& e : others)
+        if ((total += e.size) > max_bytes) remove.push_back(fs::path(dir) / e.file);
     std::size_t removed = 0;
-    for (const fs::path& p : stale) removed += fs::remove(p, ec) && !ec;
+    for (const fs::path& p : remove) removed += fs::remove(p, ec) && !ec;
     return removed;
 }
 

@@ -28,6 +28,9 @@ std::string program_cache_dir();
 /// the binary (kernel source, build options, device, driver and platform versions).
 std::string program_cache_name(const std::vector<std::string_view>& identity);
 
+/// The file of the entry for `name` in the cache directory `dir`.
+std::string program_cache_path(const std::string& dir, const std::string& name);
+
 /// The binary stored in `path` for `name`, if the file holds a complete, intact entry for it
 /// (header with name and payload checksum); nullopt otherwise. A hit renews the file's modification
 /// time (what prune_program_cache orders by).
@@ -42,8 +45,8 @@ bool store_program_binary(const std::string& path, const std::string& name, cons
 inline constexpr std::uint64_t kProgramCacheMaxBytes = 64ull << 20;
 std::uint64_t program_cache_max_bytes();
 
-/// Removes from `dir` the entries (`<16 hex digits>.clbin`) beyond `max_bytes`, newest
-/// modification time first (ties by name), always keeping the file named `keep`; and temporary
+/// Removes from `dir` the entries (program_cache_path files) beyond `max_bytes`, newest
+/// modification time first (ties by name), always keeping the entry for name `keep`; and temporary
 /// files (`*.clbin.tmp.*`) older than an hour, left by writers that died. Other files are never
 /// touched. Returns how many files it removed; errors only mean fewer are removed.
 std::size_t prune_program_cache(const std::string& dir, std::uint64_t max_bytes, const std::string& keep);

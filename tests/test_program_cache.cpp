@@ -43,7 +43,8 @@ void put_file(const TempDir& dir, const std::string& name, std::size_t bytes, st
     std::filesystem::last_write_time(dir.file(name), std::filesystem::file_time_type::clock::now() - age);
 }
 
-std::string entry(char c) { return std::string(16, c) + ".clbin"; }
+std::string name_of(char c) { return std::string(16, c); }
+std::string entry(char c) { return program_cache_path(".", name_of(c)).substr(2); }  // the entry's file name
 
 }  // namespace
 
@@ -62,29 +63,29 @@ TEST_CASE("program cache pruning drops the least recently used entries and dead 
     put_file(tmp, entry('7') + ".tmp.78.0", 1000, minutes(1));     // a writer still at work
 
     SECTION("within the limit nothing but the dead writer's file goes") {
-        CHECK(prune_program_cache(tmp.path.string(), 5000, entry('5')) == 1);
+        CHECK(prune_program_cache(tmp.path.string(), 5000, name_of('5')) == 1);
         CHECK(names(tmp).size() == 8);
     }
     SECTION("over it, the oldest go first, and the entry in use stays however old") {
-        CHECK(prune_program_cache(tmp.path.string(), 2500, entry('1')) == 4);
+        CHECK(prune_program_cache(tmp.path.string(), 2500, name_of('1')) == 4);
         CHECK(names(tmp) == std::vector<std::string>{entry('1'), entry('5'), entry('7') + ".tmp.78.0", "abc.clbin",
                                                      "notes.txt"});
     }
     SECTION("a limit of 0 keeps the entry in use alone") {
-        CHECK(prune_program_cache(tmp.path.string(), 0, entry('3')) == 5);
+        CHECK(prune_program_cache(tmp.path.string(), 0, name_of('3')) == 5);
         CHECK(names(tmp) == std::vector<std::string>{entry('3'), entry('7') + ".tmp.78.0", "abc.clbin", "notes.txt"});
     }
     SECTION("a load makes an entry the most recently used") {
-        const std::string name = std::string(16, '1');
+        const std::string name = name_of('1');
         REQUIRE(store_program_binary(tmp.file(entry('1')), name, std::vector<unsigned char>(990, 7)));
         std::filesystem::last_write_time(tmp.file(entry('1')), std::filesystem::file_time_type::clock::now() - minutes(500));
         REQUIRE(load_program_binary(tmp.file(entry('1')), name));
-        prune_program_cache(tmp.path.string(), 2500, entry('5'));
+        prune_program_cache(tmp.path.string(), 2500, name_of('5'));
         CHECK(names(tmp) == std::vector<std::string>{entry('1'), entry('5'), entry('7') + ".tmp.78.0", "abc.clbin",
                                                      "notes.txt"});
     }
     SECTION("a missing directory prunes nothing") {
-        CHECK(prune_program_cache(tmp.file("absent"), 0, entry('1')) == 0);
+        CHECK(prune_program_cache(tmp.file("absent"), 0, name_of('1')) == 0);
     }
 }
 
