@@ -131,12 +131,11 @@ trilevel::Params make_params(const ReconstructArgs& a) {
 /// runs before any OpenCL call). GPU drivers keep their own threads. Empty: every core.
 std::optional<tbb::global_control> limit_threads(const std::string& text) {
     if (text.empty()) return std::nullopt;
-    if (text.size() > 4 || !std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; }) ||
-        std::stoi(text) < 1)
-        throw UsageError("--threads must be a whole number from 1 to 9999, got '" + text + "'");
-    ::setenv("POCL_MAX_PTHREAD_COUNT", text.c_str(), 1);
-    return std::optional<tbb::global_control>(std::in_place, tbb::global_control::max_allowed_parallelism,
-                                              std::size_t(std::stoi(text)));
+    const bool digits = std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; });
+    const int n = digits && text.size() <= 4 ? std::stoi(text) : 0;
+    if (n < 1) throw UsageError("--threads must be a whole number from 1 to 9999, got '" + text + "'");
+    ::setenv("POCL_MAX_PTHREAD_COUNT", std::to_string(n).c_str(), 1);
+    return std::optional<tbb::global_control>(std::in_place, tbb::global_control::max_allowed_parallelism, std::size_t(n));
 }
 
 /// A frame number option (--start, --end): a non-negative integer.
