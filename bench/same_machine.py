@@ -49,14 +49,15 @@ def configs(args, tmp):
     out = []
     devs = devices(args.trilevel) if not args.devices else [
         (int(d), f"device {d}") for d in args.devices.split(",")]
+    threads = [int(n) for n in args.threads.split(",")]
+    counts = threads if args.trilevel_threads else [None]  # None: trilevel on every core
     for name, fname, r in DATASETS:
         src = os.path.join(args.data, fname)
         if not os.path.exists(src):
             continue
-        counts = [int(n) for n in args.threads.split(",")] if args.trilevel_threads else [None]
         for idx, dname in devs:
             # adaptive at every thread count (the peers' too), uniform r at the largest only (the baseline)
-            runs = [(["adaptive"], n) for n in counts] + [(["uniform", "--cell", "1"], counts[-1])]
+            runs = [(["adaptive"], n) for n in counts] + [(["uniform", "--cell", "1"], max(threads) if counts[0] else None)]
             for mode, n in runs:
                 label = f"trilevel {' '.join(mode)} on {dname}" + (f", --threads {n}" if n else "")
                 stats = os.path.join(tmp, f"{name}-{idx}-{mode[0]}-{n}.json")
@@ -64,7 +65,7 @@ def configs(args, tmp):
                        "-o", os.path.join(tmp, "out.ply"), "--stats", stats] + (["--threads", str(n)] if n else [])
                 out.append((label, name, cmd, stats))
         if args.splashsurf:
-            for n in args.threads.split(","):
+            for n in threads:
                 label = f"splashsurf -n {n}"
                 cmd = splashsurf_cmd(shlex.split(args.splashsurf), src, r, n, os.path.join(tmp, "out.ply"))
                 out.append((label, name, cmd, None))
@@ -80,7 +81,7 @@ def main():
     ap.add_argument("--threads", default="2")
     ap.add_argument("--devices", default="", help="comma-separated device indices (default: all)")
     ap.add_argument("--trilevel-threads", action="store_true",
-                    help="run trilevel with --threads at each of --threads' counts too (host stages and PoCL)")
+                    help="run trilevel with --threads N at --threads' counts instead of on every core (host stages and PoCL)")
     ap.add_argument("--out", default="")
     ap.add_argument("--timeout", type=float, default=600, help="seconds per run before it is killed")
     args = ap.parse_args()
