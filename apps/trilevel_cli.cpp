@@ -88,7 +88,7 @@ void check_output(const std::string& path, const std::vector<std::string>& exten
 
 struct ReconstructArgs {
     std::string input, output, radius, kernel_radius = "4", mode = "adaptive", cell = "1", threshold, memory,
-        stats, hysteresis, level2_tolerance, threads;
+        stats, hysteresis, level2_tolerance, threads, crack_closing = "collapse";
     std::string start, end;  // frame sequences: range of frame numbers
     int device = -1;
     bool color_levels = false, quiet = false, skip_existing = false, drop_invalid = false;
@@ -113,6 +113,9 @@ trilevel::Params make_params(const ReconstructArgs& a) {
         if (!(t >= 0 && t < 1e6)) throw UsageError("--level2-tolerance must be >= 0 (in r; 0 = off), got '" + a.level2_tolerance + "'");
         p.level2_tolerance = static_cast<float>(t);
     }
+    if (a.crack_closing == "collapse") p.crack_closing = trilevel::CrackClosing::Collapse;
+    else if (a.crack_closing == "patches") p.crack_closing = trilevel::CrackClosing::Patches;
+    else throw UsageError("--crack-closing must be collapse or patches, got '" + a.crack_closing + "'");
     if (!a.memory.empty()) p.memory_limit_bytes = parse_bytes(a.memory);
     p.level_hysteresis = 0.2f;  // sequences (README: 0.2 removes 71% of the level changes); no effect on one file
     if (!a.hysteresis.empty()) {
@@ -425,6 +428,9 @@ int run(int argc, char** argv) {
     rec->add_option("--level2-tolerance", ra.level2_tolerance,
                     "Adaptive mode: also refine level-2 cells whose lattice misses the field at a cube centre by more "
                     "than this many r (default 0 = off; 0.5 with --curvature-threshold 8 for resampled particles)");
+    rec->add_option("--crack-closing", ra.crack_closing,
+                    "Adaptive mode: 'collapse' (default: inner crack crossings merged into the level-2 ones) or "
+                    "'patches' (every crack triangulated, paper 3.3.2)");
     rec->add_option("--device", ra.device, "OpenCL device index (see `trilevel devices`)");
     rec->add_option("--threads", ra.threads, "CPU threads for the host stages and PoCL (default: every core)");
     rec->add_option("--stats", ra.stats, "Write statistics as JSON");

@@ -32,7 +32,7 @@ public:
     FaceStitcher(const Level3Block& b, int axis, int side, const FinePointMap& field)
         : b_(b), axis_(axis), side_(side), field_(field) {}
 
-    std::size_t stitch(int u, int v, std::vector<std::uint32_t>& out);
+    std::size_t stitch(int u, int v, std::vector<std::uint32_t>& out, std::vector<std::uint32_t>* runs);
 
 private:
     const Level3Block& b_;
@@ -85,6 +85,8 @@ private:
         return false;
     }
     void triangulate(SmallVec<std::int32_t, 10>& poly, std::vector<std::uint32_t>& out);
+    static void add_runs(const SmallVec<std::int32_t, 10>& cycle, const std::array<bool, 10>& level2_edge,
+                         std::vector<std::uint32_t>& runs);
 };
 
 // Segments of one face square as directed vertex edges. The level-3 cubes see the face from the
@@ -191,7 +193,29 @@ void FaceStitcher::triangulate(SmallVec<std::int32_t, 10>& poly, std::vector<std
     out.insert(out.end(), {std::uint32_t(poly.item[0]), std::uint32_t(poly.item[1]), std::uint32_t(poly.item[2])});
 }
 
-std::size_t FaceStitcher::stitch(int u, int v, std::vector<std::uint32_t>& out) {
+// The cycle's level-3 runs from one level-2 crossing to the next that pass inner crossings
+// (level2_edge[i]: the edge leaving cycle[i] is a level-2 face segment), as (length, vertices...).
+void FaceStitcher::add_runs(const SmallVec<std::int32_t, 10>& cycle, const std::array<bool, 10>& level2_edge,
+                            std::vector<std::uint32_t>& runs) {
+    const int n = cycle.size;
+    auto outer = [&](int i) { return level2_edge[i % n] || level2_edge[(i + n - 1) % n]; };
+    for (int i = 0; i < n; ++i) {
+        if (!outer(i) || level2_edge[i] || outer(i + 1)) continue;  // starts a run with an inner vertex
+        const std::size_t head = runs.size();
+        runs.push_back(0);
+        int j = i;
+        do runs.push_back(std::uint32_t(cycle.item[j++ % n]));
+        while (!outer(j) && j < i + n);
+        if (!outer(j)) {  // no level-2 crossing at all: nothing to collapse into
+            runs.resize(head);
+            return;
+        }
+        runs.push_back(std::uint32_t(cycle.item[j % n]));
+        runs[head] = std::uint32_t(runs.size() - head - 1);
+    }
+}
+
+std::size_t FaceStitcher::stitch(int u, int v, std::vector<std::uint32_t>& out, std::vector<std::uint32_t>* runs) {
     u_ = u;
     v_ = v;
     edges_.size = 0;
@@ -202,6 +226,7 @@ std::size_t FaceStitcher::stitch(int u, int v, std::vector<std::uint32_t>& out) 
     o[(axis_ + 1) % 3] = 2 * u;
     o[(axis_ + 2) % 3] = 2 * v;
     add_face_segments(1 - side_, o, 2);
+    const int level2_edges = edges_.size;
     for (int dv = 0; dv < 2; ++dv)
         for (int du = 0; du < 2; ++du) {
             glm::ivec3 q = o;
@@ -214,8 +239,10 @@ std::size_t FaceStitcher::stitch(int u, int v, std::vector<std::uint32_t>& out) 
     for (int s = 0; s < edges_.size; ++s) {
         if (done[s]) continue;
         SmallVec<std::int32_t, 10> cycle;
+        std::array<bool, 10> level2_edge{};
         for (int e = s;;) {
             done[e] = true;
+            level2_edge[cycle.size] = e < level2_edges;
             cycle.push(edges_.item[e].from);
             int next = -1;
             for (int f = 0; f < edges_.size; ++f)
@@ -229,6 +256,7 @@ std::size_t FaceStitcher::stitch(int u, int v, std::vector<std::uint32_t>& out) 
             e = next;
         }
         if (cycle.size < 3) continue;
+        if (runs) add_runs(cycle, level2_edge, *runs);
         // Patches run opposite to the cycle, so every crack edge is used once each way.
         SmallVec<std::int32_t, 10> poly;
         for (int i = cycle.size - 1; i >= 0; --i) poly.push(cycle.item[i]);
@@ -241,11 +269,11 @@ std::size_t FaceStitcher::stitch(int u, int v, std::vector<std::uint32_t>& out) 
 }  // namespace
 
 std::size_t stitch_transition_face(const Level3Block& block, int axis, int side, const FinePointMap& field,
-                                   std::vector<std::uint32_t>& out) {
+                                   std::vector<std::uint32_t>& out, std::vector<std::uint32_t>* runs) {
     FaceStitcher stitcher(block, axis, side, field);
     std::size_t patches = 0;
     for (int v = 0; v < block.n / 2; ++v)
-        for (int u = 0; u < block.n / 2; ++u) patches += stitcher.stitch(u, v, out);
+        for (int u = 0; u < block.n / 2; ++u) patches += stitcher.stitch(u, v, out, runs);
     return patches;
 }
 

@@ -20,6 +20,7 @@
 #include <tbb/task_arena.h>
 
 #include "cell_index.hpp"
+#include "crack_collapse.hpp"
 #include "crack_stitch.hpp"
 #include "marching_cubes.hpp"
 
@@ -35,6 +36,7 @@ struct ChunkOut {
     std::vector<std::uint8_t> shared;  // on a cell boundary: may repeat in other cells
     std::vector<std::uint32_t> triangles;
     std::vector<TriangleKind> kinds;
+    std::vector<std::uint32_t> crack_runs;  // host/crack_collapse.hpp, chunk-local vertex ids
 };
 
 struct Scratch {
@@ -58,8 +60,8 @@ glm::vec3 crossing_position(const LatticeFrame& f, glm::ivec3 lower, int axis, f
 
 class CellMesher {
 public:
-    CellMesher(const LatticeFrame& frame, const FinePointMap& field, const CellIndex& cells)
-        : frame_(frame), field_(field), cells_(cells) {}
+    CellMesher(const LatticeFrame& frame, const FinePointMap& field, const CellIndex& cells, bool list_runs)
+        : frame_(frame), field_(field), cells_(cells), list_runs_(list_runs) {}
 
     void mesh(const CoarseCell& cell, Scratch& s, ChunkOut& out) const;
 
@@ -67,6 +69,7 @@ private:
     const LatticeFrame& frame_;
     const FinePointMap& field_;
     const CellIndex& cells_;
+    const bool list_runs_;
     bool gather(const CoarseCell& cell, int n, Scratch& s) const;
     void stitch(const CoarseCell& cell, Scratch& s, ChunkOut& out) const;
     void level2_midpoints(const CoarseCell& cell, int n, Scratch& s) const;
@@ -204,7 +207,8 @@ void CellMesher::stitch(const CoarseCell& cell, Scratch& s, ChunkOut& out) const
             if (cells_.level(nb) != 2) continue;
             const Level3Block block{cell.coord * frame_.coarse_steps, frame_.coarse_steps, s.values.data(),
                                     s.slots.data(), out.positions.data()};
-            const std::size_t patches = stitch_transition_face(block, axis, side, field_, out.triangles);
+            const std::size_t patches =
+                stitch_transition_face(block, axis, side, field_, out.triangles, list_runs_ ? &out.crack_runs : nullptr);
             out.kinds.insert(out.kinds.end(), patches, TriangleKind::Patch);
         }
 }
@@ -290,13 +294,27 @@ void number_chunk(ChunkOut& c, VertexIndex& index, std::vector<std::uint32_t>& i
     release(c.shared);
 }
 
+// The chunks' crack runs with global vertex ids, in chunk order (host/crack_collapse.hpp).
+CrackRuns global_runs(const std::vector<ChunkOut>& chunks, const std::vector<std::vector<std::uint32_t>>& ids) {
+    CrackRuns runs;
+    for (std::size_t ci = 0; ci < chunks.size(); ++ci) {
+        const auto& local = chunks[ci].crack_runs;
+        for (std::size_t i = 0; i < local.size(); i += local[i] + 1) {
+            runs.push_back(local[i]);
+            for (std::size_t k = 1; k <= local[i]; ++k) runs.push_back(ids[ci][local[i + k]]);
+        }
+    }
+    return runs;
+}
+
 }  // namespace
 
-Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame& frame, const FinePointMap& field) {
+Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame& frame, const FinePointMap& field,
+                       CrackClosing closing, std::size_t* collapsed) {
     if (frame.coarse_steps < 2 || frame.coarse_steps % 2) throw Error("triangulation: coarse_steps must be even");
     // Phases 1-2 as a pipeline: chunks are meshed in parallel and numbered in order meanwhile.
     const CellIndex cell_index(cells);
-    const CellMesher mesher(frame, field, cell_index);
+    const CellMesher mesher(frame, field, cell_index, closing == CrackClosing::Collapse);
     const std::size_t nc = (cells.size() + kCellsPerChunk - 1) / kCellsPerChunk;
     std::vector<ChunkOut> chunks(nc);
     std::vector<std::vector<std::uint32_t>> ids(nc);
@@ -323,6 +341,7 @@ Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame&
     index.reset();  // freed before phase 3 allocates the mesh's triangles (the run's peak at x64)
     scratch.reset();
 
+    const CrackRuns runs = global_runs(chunks, ids);
     // Phase 3: triangles with global indices, in chunk order.
     std::vector<std::size_t> tri_offset(nc + 1, 0);
     for (std::size_t ci = 0; ci < nc; ++ci) tri_offset[ci + 1] = tri_offset[ci] + chunks[ci].kinds.size();
@@ -338,6 +357,8 @@ Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame&
             release(ids[ci]);
         }
     });
+    const std::size_t merged = collapse_crack_runs(mesh, runs);
+    if (collapsed) *collapsed = merged;
     return mesh;
 }
 

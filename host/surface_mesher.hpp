@@ -16,6 +16,9 @@ namespace trilevel {
 /// continuity. Cells are processed in the given order (callers pass them sorted by pack(coord));
 /// vertices are numbered by first appearance; the result is bit-identical for any thread count.
 /// Closed and oriented whenever no crossing lies on a face without a neighbour (band closure).
-Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame& frame, const FinePointMap& field);
+/// CrackClosing::Collapse then merges the cracks' inner crossings into the level-2 crossings
+/// (host/crack_collapse.hpp); `collapsed`, when given, receives how many vertices that removed.
+Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame& frame, const FinePointMap& field,
+                       CrackClosing closing = CrackClosing::Collapse, std::size_t* collapsed = nullptr);
 
 }  // namespace trilevel

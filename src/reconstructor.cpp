@@ -379,6 +379,7 @@ void accumulate(Stats& into, const Stats& s) {
     into.fine_points += s.fine_points;
     into.fine_points_level2 += s.fine_points_level2;
     into.fine_points_level3 += s.fine_points_level3;
+    into.crack_vertices_collapsed += s.crack_vertices_collapsed;
     into.device_memory_bytes = std::max(into.device_memory_bytes, s.device_memory_bytes);
     into.device = s.device;
     into.device_compute_units = s.device_compute_units;
@@ -521,7 +522,7 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
 
         rt.set_stage("triangulation");
         check_host(double(s.fine_points) * constants::kMeshBytesPerFinePoint, host, "the mesh of " + std::to_string(s.fine_points) + " fine points");
-        mesh = triangulate_cells(cells, g.frame, field);
+        mesh = triangulate_cells(cells, g.frame, field, p.crack_closing, &s.crack_vertices_collapsed);
         field = FinePointMap();
         unmap_fine_points(rt, points);
         points = FinePoints{};

@@ -20,6 +20,7 @@ std::string stats_to_json(const Stats& s, const Params& p) {
     j["vertices"] = s.vertices;
     j["triangles"] = s.triangles;
     j["triangles_by_kind"] = {{"level2", s.triangles_level2}, {"level3", s.triangles_level3}, {"patch", s.triangles_patch}};
+    j["crack_vertices_collapsed"] = s.crack_vertices_collapsed;
     nlohmann::ordered_json t = nlohmann::ordered_json::object();
     for (const auto& [name, ms] : s.time_ms) t[name] = ms;
     j["time_ms"] = t;
@@ -43,6 +44,7 @@ std::string stats_to_json(const Stats& s, const Params& p) {
                        {"normals", p.normals == NormalMode::Gradient ? "gradient" : p.normals == NormalMode::Area ? "area" : "none"},
                        {"curvature_threshold", p.curvature_threshold > 0 ? p.curvature_threshold : default_curvature_threshold()},
                        {"level2_tolerance", p.level2_tolerance},
+                       {"crack_closing", p.crack_closing == CrackClosing::Collapse ? "collapse" : "patches"},
                        {"level_hysteresis", p.level_hysteresis}};
     return j.dump(2) + "\n";
 }

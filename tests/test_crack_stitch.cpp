@@ -101,41 +101,53 @@ AdaptiveCase random_adaptive_case(std::uint32_t seed, int coarse_steps = 4) {
 }  // namespace
 
 TEST_CASE("adaptive property test: 10000 random fields give closed oriented meshes", "[mesh]") {
-    // TRILEVEL_PROPERTY_FIELDS=N runs a longer soak (default 10,000).
+    // TRILEVEL_PROPERTY_FIELDS=N runs a longer soak (default 10,000). Each field is meshed with
+    // patches alone and with the collapse; a collapse removes one vertex and two triangles.
     const char* env = std::getenv("TRILEVEL_PROPERTY_FIELDS");
     const int kFields = env ? std::max(1, std::atoi(env)) : 10000;
     int failures = 0;
-    std::size_t patches = 0, triangles = 0, transition_meshes = 0;
+    std::size_t patches = 0, triangles = 0, transition_meshes = 0, collapsed = 0, collapsed_meshes = 0, left = 0;
     for (int seed = 0; seed < kFields; ++seed) {
         AdaptiveCase c = random_adaptive_case(std::uint32_t(seed) * 2654435761u + 17u);
-        const Mesh m = triangulate_cells(c.cells, c.frame, c.field);
-        const auto r = mesh_topology_report(m);
-        if (!r.closed_and_oriented()) {
-            if (++failures <= 5)
-                FAIL_CHECK("seed " << seed << ": boundary " << r.boundary_edges << " conflicts " << r.orientation_conflicts
-                                   << " non-manifold " << r.non_manifold_edges << " degenerate " << r.degenerate_triangles);
-            continue;
+        std::size_t merged = 0;
+        const Mesh m = triangulate_cells(c.cells, c.frame, c.field, CrackClosing::Patches);
+        const Mesh k = triangulate_cells(c.cells, c.frame, c.field, CrackClosing::Collapse, &merged);
+        for (const Mesh* mesh : {&m, &k}) {
+            const auto r = mesh_topology_report(*mesh);
+            if (!r.closed_and_oriented() && ++failures <= 5)
+                FAIL_CHECK("seed " << seed << (mesh == &k ? " (collapse)" : " (patches)") << ": boundary " << r.boundary_edges
+                                   << " conflicts " << r.orientation_conflicts << " non-manifold " << r.non_manifold_edges
+                                   << " degenerate " << r.degenerate_triangles);
         }
+        if (k.vertex_count() + merged != m.vertex_count() || k.triangle_count() + 2 * merged != m.triangle_count())
+            if (++failures <= 5) FAIL_CHECK("seed " << seed << ": " << merged << " collapses do not account for the counts");
         std::size_t here = 0;
-        for (std::size_t t = 0; t < m.triangle_count(); ++t) {
-            if (m.triangle_kind[t] != TriangleKind::Patch) continue;
-            ++here;
-            glm::vec3 v[3];
-            for (int k = 0; k < 3; ++k) {
-                const std::uint32_t i = m.triangles[3 * t + k];
-                v[k] = {m.positions[3 * i], m.positions[3 * i + 1], m.positions[3 * i + 2]};
+        for (const Mesh* mesh : {&m, &k})
+            for (std::size_t t = 0; t < mesh->triangle_count(); ++t) {
+                if (mesh->triangle_kind[t] != TriangleKind::Patch) continue;
+                here += mesh == &m;
+                left += mesh == &k;
+                glm::vec3 v[3];
+                for (int j = 0; j < 3; ++j) {
+                    const std::uint32_t i = mesh->triangles[3 * t + j];
+                    v[j] = {mesh->positions[3 * i], mesh->positions[3 * i + 1], mesh->positions[3 * i + 2]};
+                }
+                if (!on_transition_face(c.cells, c.frame.coarse_steps, v) && ++failures <= 5)
+                    FAIL_CHECK("seed " << seed << ": patch triangle " << t << " off every transition face");
             }
-            if (!on_transition_face(c.cells, c.frame.coarse_steps, v) && ++failures <= 5)
-                FAIL_CHECK("seed " << seed << ": patch triangle " << t << " off every transition face");
-        }
         patches += here;
         triangles += m.triangle_count();
         transition_meshes += here > 0;
+        collapsed += merged;
+        collapsed_meshes += merged > 0;
     }
     CHECK(failures == 0);
     CHECK(transition_meshes > std::size_t(kFields) / 4);  // the patches are exercised, not just allowed
-    WARN(kFields << " adaptive fields: " << triangles << " triangles, " << patches << " patches in "
-                 << transition_meshes << " meshes");
+    CHECK(collapsed_meshes > transition_meshes / 2);      // and so are the collapses
+    CHECK(left < patches);
+    WARN(kFields << " adaptive fields: " << triangles << " triangles, " << patches << " patches in " << transition_meshes
+                 << " meshes; the collapse merged " << collapsed << " vertices in " << collapsed_meshes << " meshes, "
+                 << left << " patches left");
 }
 
 TEST_CASE("adaptive property test with coarse cells of 2 and 6 steps", "[mesh]") {
@@ -143,8 +155,10 @@ TEST_CASE("adaptive property test with coarse cells of 2 and 6 steps", "[mesh]")
     for (int cs : {2, 6})
         for (int seed = 0; seed < 1000; ++seed) {
             AdaptiveCase c = random_adaptive_case(std::uint32_t(seed) * 40503u + std::uint32_t(cs), cs);
-            const auto r = mesh_topology_report(triangulate_cells(c.cells, c.frame, c.field));
-            if (!r.closed_and_oriented() && ++failures <= 5) FAIL_CHECK("coarse_steps " << cs << " seed " << seed);
+            for (CrackClosing closing : {CrackClosing::Patches, CrackClosing::Collapse}) {
+                const auto r = mesh_topology_report(triangulate_cells(c.cells, c.frame, c.field, closing));
+                if (!r.closed_and_oriented() && ++failures <= 5) FAIL_CHECK("coarse_steps " << cs << " seed " << seed);
+            }
         }
     CHECK(failures == 0);
 }
@@ -189,13 +203,14 @@ TEST_CASE("adaptive sphere with random levels: closed, outward, same output on 1
         return float(glm::length(glm::dvec3(p) - centre) - radius);
     });
     apply_transition_continuity(cells, frame, field);
-    auto run = [&](int threads) {
+    std::size_t merged = 0;
+    auto run = [&](int threads, CrackClosing closing) {
         tbb::task_arena arena(threads);
         Mesh m;
-        arena.execute([&] { m = triangulate_cells(cells, frame, field); });
+        arena.execute([&] { m = triangulate_cells(cells, frame, field, closing, &merged); });
         return m;
     };
-    const Mesh a = run(1), b = run(2);
+    const Mesh a = run(1, CrackClosing::Patches), b = run(2, CrackClosing::Patches);
     CHECK(is_closed_and_oriented(a));
     CHECK(a.positions == b.positions);
     CHECK(a.triangles == b.triangles);
@@ -206,4 +221,16 @@ TEST_CASE("adaptive sphere with random levels: closed, outward, same output on 1
     const auto patches = std::count(a.triangle_kind.begin(), a.triangle_kind.end(), TriangleKind::Patch);
     CHECK(patches > 0);
     CHECK(double(patches) < 0.15 * double(a.triangle_count()));  // half the faces are transitions here
+
+    // The collapse: same output on 1 and 2 threads, closed, the same ball, most patches gone.
+    const Mesh c = run(1, CrackClosing::Collapse), d = run(2, CrackClosing::Collapse);
+    CHECK(c.positions == d.positions);
+    CHECK(c.triangles == d.triangles);
+    CHECK(c.triangle_kind == d.triangle_kind);
+    CHECK(is_closed_and_oriented(c));
+    CHECK(c.triangle_count() + 2 * merged == a.triangle_count());
+    CHECK(std::abs(test::signed_volume(c) - ball) < 0.02 * ball);
+    const auto left = std::count(c.triangle_kind.begin(), c.triangle_kind.end(), TriangleKind::Patch);
+    CHECK(merged > std::size_t(patches) / 2);
+    CHECK(left < patches / 10);
 }

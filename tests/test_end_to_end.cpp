@@ -193,14 +193,25 @@ TEST_CASE("levels end to end: a 6r droplet is level 3, a resting pool level 2, i
     CHECK(st.triangles_patch == 0);
 
     // The generated pool-and-drop: its flat pool is level 2 at the same threshold, while the drop,
-    // the jet and the splash particles make level-3 cells, and crack patches close the seams.
+    // the jet and the splash particles make level-3 cells, and crack patches close the seams; the
+    // default closing then merges their inner crossings away, two triangles fewer per vertex.
     ParticleSet pd = generate_scene("pool-and-drop", r, 1);
+    p.crack_closing = CrackClosing::Patches;
+    Stats patched;
+    m = rec.reconstruct(pd.positions.data(), pd.size(), p, &patched);
+    require_closed(m, "pool-and-drop at threshold 0.5, patches");
+    CHECK(patched.triangles_patch > 0);
+    CHECK(patched.crack_vertices_collapsed == 0);
+    p.crack_closing = CrackClosing::Collapse;
     m = rec.reconstruct(pd.positions.data(), pd.size(), p, &st);
     require_closed(m, "pool-and-drop at threshold 0.5");
     CHECK(st.surface_cells_level2 > 2 * st.surface_cells_level3);
     CHECK(st.surface_cells_level3 > 0);
     CHECK(st.splash_cells > 0);
-    CHECK(st.triangles_patch > 0);
+    CHECK(st.crack_vertices_collapsed > 0);
+    CHECK(st.triangles_patch < patched.triangles_patch);
+    CHECK(st.vertices + st.crack_vertices_collapsed == patched.vertices);
+    CHECK(st.triangles + 2 * st.crack_vertices_collapsed == patched.triangles);
     CHECK(st.triangles_level2 + st.triangles_level3 + st.triangles_patch == st.triangles);
 
     // Isolated particles are splash particles: level 3 at the default threshold.

@@ -36,6 +36,14 @@ enum class NormalMode {
     Area,      ///< sum of the adjacent triangles' normals weighted by their area: the mesh's own shading normal
 };
 
+/// How the cracks between level-2 and level-3 cells are closed (DESIGN §7, docs/design.md).
+enum class CrackClosing {
+    Collapse,  ///< patches, then each inner crossing of a transition face merged into the level-2
+               ///< crossing beside it where that keeps the mesh closed and unfolded: two triangles
+               ///< fewer per merged vertex, most patches gone
+    Patches,   ///< the patches alone: every crack polygon triangulated by ear clipping (paper §3.3.2)
+};
+
 /// Reconstruction parameters. Lengths are in multiples of the particle radius r unless stated;
 /// positions (input and output) are in world units.
 struct Params {
@@ -60,6 +68,7 @@ struct Params {
                                        ///< it removed 71% of the level changes between frames of the generated
                                        ///< falling-drop without adding level-3 cells (README).
     NormalMode normals = NormalMode::None; ///< per-vertex normals to compute (Mesh::normals)
+    CrackClosing crack_closing = CrackClosing::Collapse;  ///< adaptive mode: see CrackClosing
 };
 
 /// A named quantity per particle (input) or per mesh vertex (output): velocity, density, ...
@@ -111,7 +120,8 @@ struct Stats {
     std::size_t triangles = 0;              ///< of the mesh; the sum of the three kinds below
     std::size_t triangles_level2 = 0;       ///< TriangleKind::Level2
     std::size_t triangles_level3 = 0;       ///< TriangleKind::Level3
-    std::size_t triangles_patch = 0;        ///< TriangleKind::Patch (crack closing, DESIGN §8)
+    std::size_t triangles_patch = 0;        ///< TriangleKind::Patch (crack closing, DESIGN §7)
+    std::size_t crack_vertices_collapsed = 0; ///< inner crack crossings merged away (CrackClosing::Collapse)
     std::vector<std::pair<std::string, double>> time_ms;  ///< milliseconds (wall) per stage in pipeline order, then "total"
     std::vector<std::pair<std::string, double>> kernel_ms; ///< milliseconds of OpenCL profiling time per kernel
     std::uint64_t peak_memory_bytes = 0;   ///< bytes; process peak resident memory after the run
