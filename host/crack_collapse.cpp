@@ -146,17 +146,12 @@ std::size_t collapse_crack_runs(Mesh& mesh, const CrackRuns& runs) {
         std::deque<std::uint32_t> inner(runs.begin() + std::ptrdiff_t(i + 2), runs.begin() + std::ptrdiff_t(i + runs[i]));
         // From the ends inwards: each step merges an end vertex of the inner chain into the run end
         // beside it, the nearer pair first (the smaller move of the surface).
+        auto merge_front = [&] { return c.collapse(inner.front(), a) && (inner.pop_front(), true); };
+        auto merge_back = [&] { return c.collapse(inner.back(), b) && (inner.pop_back(), true); };
         while (!inner.empty()) {
-            const double da = glm::distance(c.position(inner.front()), c.position(a));
-            const double db = glm::distance(c.position(inner.back()), c.position(b));
-            const bool front_first = da <= db;
-            if (front_first ? c.collapse(inner.front(), a) : c.collapse(inner.back(), b)) {
-                front_first ? inner.pop_front() : inner.pop_back();
-            } else if (!front_first ? c.collapse(inner.front(), a) : c.collapse(inner.back(), b)) {
-                !front_first ? inner.pop_front() : inner.pop_back();
-            } else {
-                break;
-            }
+            const bool front_first = glm::distance(c.position(inner.front()), c.position(a)) <=
+                                     glm::distance(c.position(inner.back()), c.position(b));
+            if (!(front_first ? merge_front() || merge_back() : merge_back() || merge_front())) break;
             ++collapsed;
         }
     }

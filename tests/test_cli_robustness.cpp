@@ -120,6 +120,7 @@ TEST_CASE("CLI: absurd parameters are one line naming the parameter, and the old
         {{"-r", "0.025", "--curvature-threshold", "-inf"}, "curvature threshold (--curvature-threshold) must be finite"},
         {{"-r", "0.025", "--level2-tolerance", "-1"}, "--level2-tolerance must be >= 0"},
         {{"-r", "0.025", "--level2-tolerance", "nan"}, "--level2-tolerance must be >= 0"},
+        {{"-r", "0.025", "--crack-closing", "weld"}, "--crack-closing must be collapse or patches, got 'weld'"},
         {{"-r", "0.025", "--memory-limit", "1"}, "memory limit of 1 bytes"},
         {{"-r", "0.025", "--memory-limit", "0"}, "--memory-limit must be a positive byte count"},
         {{"-r", "0.025", "--memory-limit", "64K"}, "over the budget"},

@@ -173,17 +173,30 @@ class ReconstructTest(unittest.TestCase):
         _, _, _, empty = self.rec.reconstruct(self.sphere, R, attributes={})
         self.assertEqual(empty, {})
 
+    def test_crack_closing(self):
+        scene = trilevel.generate_scene("pool-and-drop", R)
+        _, tp, sp = self.rec.reconstruct(scene, R, curvature_threshold=0.5, crack_closing="patches")
+        _, tc, sc = self.rec.reconstruct(scene, R, curvature_threshold=0.5)
+        self.assertEqual(sp["crack_vertices_collapsed"], 0)
+        self.assertGreater(sp["triangles_by_kind"]["patch"], 0)
+        self.assertGreater(sc["crack_vertices_collapsed"], 0)
+        self.assertEqual(len(tc) + 2 * sc["crack_vertices_collapsed"], len(tp))  # Euler: 2 triangles a vertex
+        self.assertTrue(sc["closed"])
+        self.assertEqual(sc["parameters"]["crack_closing"], "collapse")
+        with self.assertRaisesRegex(trilevel.Error, "crack_closing must be 'collapse' or 'patches', got 'weld'"):
+            self.rec.reconstruct(scene, R, crack_closing="weld")
+
     def test_level_hysteresis_and_reset_history(self):
         frames = [trilevel.generate_scene("falling-drop", R, frame=f) for f in range(0, 24, 2)]
-        held = {}
+        held = {}  # at threshold 4, which the scene's drops cross (the default 4.5 they cross less)
         for h in (0.0, 0.2):
             rec = trilevel.Reconstructor()
-            _, _, first = rec.reconstruct(frames[0], R, level_hysteresis=h)
+            _, _, first = rec.reconstruct(frames[0], R, level_hysteresis=h, curvature_threshold=4.0)
             self.assertNotIn("level_flips", first)  # nothing to compare the first frame with
             self.assertEqual(first["parameters"]["level_hysteresis"], np.float32(h))
             held[h] = 0
             for p in frames[1:]:
-                _, _, stats = rec.reconstruct(p, R, level_hysteresis=h)
+                _, _, stats = rec.reconstruct(p, R, level_hysteresis=h, curvature_threshold=4.0)
                 flips = stats["level_flips"]
                 self.assertGreater(flips["compared"], 0)
                 self.assertLessEqual(flips["changed"], flips["compared"])
@@ -191,9 +204,9 @@ class ReconstructTest(unittest.TestCase):
             # After reset_history the next frame is reconstructed as if alone: no comparison, and
             # the same mesh as a fresh Reconstructor gives.
             rec.reset_history()
-            v, t, stats = rec.reconstruct(frames[-1], R, level_hysteresis=h)
+            v, t, stats = rec.reconstruct(frames[-1], R, level_hysteresis=h, curvature_threshold=4.0)
             self.assertNotIn("level_flips", stats)
-            fv, ft, _ = trilevel.reconstruct(frames[-1], R, level_hysteresis=h)
+            fv, ft, _ = trilevel.reconstruct(frames[-1], R, level_hysteresis=h, curvature_threshold=4.0)
             assert_bit_equal(self, v, fv)
             assert_bit_equal(self, t, ft)
         self.assertEqual(held[0.0], 0)
