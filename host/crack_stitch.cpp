@@ -205,11 +205,7 @@ void FaceStitcher::add_runs(const SmallVec<std::int32_t, 10>& cycle, const std::
         runs.push_back(0);
         int j = i;
         do runs.push_back(std::uint32_t(cycle.item[j++ % n]));
-        while (!outer(j) && j < i + n);
-        if (!outer(j)) {  // no level-2 crossing at all: nothing to collapse into
-            runs.resize(head);
-            return;
-        }
+        while (!outer(j));  // ends at the next level-2 crossing (outer(i + n) at the latest)
         runs.push_back(std::uint32_t(cycle.item[j % n]));
         runs[head] = std::uint32_t(runs.size() - head - 1);
     }
