@@ -18,7 +18,6 @@ public:
     bool collapse(std::uint32_t v, std::uint32_t a);
     // Drops the dead vertices and triangles, keeping the order of the rest.
     void compact();
-    bool dead(std::uint32_t v) const { return dead_vertex_[v] != 0; }
     glm::dvec3 position(std::uint32_t v) const {
         return {m_.positions[3 * v], m_.positions[3 * v + 1], m_.positions[3 * v + 2]};
     }
@@ -65,45 +64,37 @@ bool RunCollapser::flips(std::uint32_t t, std::uint32_t v, glm::dvec3 to) {
 }
 
 bool RunCollapser::collapse(std::uint32_t v, std::uint32_t a) {
-    if (dead_vertex_[a]) return false;
     auto& tv = alive_triangles(v);
     auto& ta = alive_triangles(a);
-    auto holds = [&](std::uint32_t t, std::uint32_t x) {
+    // v's triangles: the two on edge (v, a), which vanish, and the rest, which take a.
+    std::vector<std::uint32_t> edge, rest, nv, na;
+    for (std::uint32_t t : tv) {
         const std::uint32_t* c = corners(t);
-        return c[0] == x || c[1] == x || c[2] == x;
-    };
-    // The two triangles on edge (v, a) and their apexes.
+        (c[0] == a || c[1] == a || c[2] == a ? edge : rest).push_back(t);
+    }
+    if (edge.size() != 2) return false;
     std::uint32_t apex[2];
-    int on_edge = 0;
-    for (std::uint32_t t : tv)
-        if (holds(t, a)) {
-            if (on_edge == 2) return false;
-            const std::uint32_t* c = corners(t);
-            apex[on_edge++] = c[0] != v && c[0] != a ? c[0] : c[1] != v && c[1] != a ? c[1] : c[2];
-        }
-    if (on_edge != 2 || apex[0] == apex[1]) return false;
+    for (int e = 0; e < 2; ++e) {
+        const std::uint32_t* c = corners(edge[e]);
+        apex[e] = c[0] != v && c[0] != a ? c[0] : c[1] != v && c[1] != a ? c[1] : c[2];
+    }
+    if (apex[0] == apex[1]) return false;
     // Link condition: v and a may share no neighbour but the two apexes, else the merged vertex
     // would carry a non-manifold edge. Neighbour lists here hold a dozen vertices.
-    std::vector<std::uint32_t> nv, na;
-    for (std::uint32_t t : tv)
-        for (int k = 0; k < 3; ++k) nv.push_back(corners(t)[k]);
-    for (std::uint32_t t : ta)
-        for (int k = 0; k < 3; ++k) na.push_back(corners(t)[k]);
-    for (auto* n : {&nv, &na}) {
+    for (auto [ts, n] : {std::pair{&tv, &nv}, std::pair{&ta, &na}}) {
+        for (std::uint32_t t : *ts) n->insert(n->end(), corners(t), corners(t) + 3);
         std::sort(n->begin(), n->end());
         n->erase(std::unique(n->begin(), n->end()), n->end());
     }
     if (nv.size() == 4 && na.size() == 4) return false;  // a tetrahedron would fold shut
     for (std::uint32_t x : nv)
-        if (x != v && x != a && x != apex[0] && x != apex[1] && std::binary_search(na.begin(), na.end(), x)) return false;
+        if (x != v && x != a && x != apex[0] && x != apex[1] && std::binary_search(na.begin(), na.end(), x))
+            return false;
     const glm::dvec3 to = position(a);
-    for (std::uint32_t t : tv)
-        if (!holds(t, a) && flips(t, v, to)) return false;
-    for (std::uint32_t t : tv) {
-        if (holds(t, a)) {
-            dead_tri_[t] = 1;
-            continue;
-        }
+    for (std::uint32_t t : rest)
+        if (flips(t, v, to)) return false;
+    for (std::uint32_t t : edge) dead_tri_[t] = 1;
+    for (std::uint32_t t : rest) {
         std::uint32_t* c = corners(t);
         for (int k = 0; k < 3; ++k)
             if (c[k] == v) c[k] = a;

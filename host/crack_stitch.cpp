@@ -32,7 +32,7 @@ public:
     FaceStitcher(const Level3Block& b, int axis, int side, const FinePointMap& field)
         : b_(b), axis_(axis), side_(side), field_(field) {}
 
-    std::size_t stitch(int u, int v, std::vector<std::uint32_t>& out, std::vector<std::uint32_t>* runs);
+    std::size_t stitch(int u, int v, std::vector<std::uint32_t>& out, std::vector<std::uint32_t>& runs);
 
 private:
     const Level3Block& b_;
@@ -211,7 +211,7 @@ void FaceStitcher::add_runs(const SmallVec<std::int32_t, 10>& cycle, const std::
     }
 }
 
-std::size_t FaceStitcher::stitch(int u, int v, std::vector<std::uint32_t>& out, std::vector<std::uint32_t>* runs) {
+std::size_t FaceStitcher::stitch(int u, int v, std::vector<std::uint32_t>& out, std::vector<std::uint32_t>& runs) {
     u_ = u;
     v_ = v;
     edges_.size = 0;
@@ -252,7 +252,7 @@ std::size_t FaceStitcher::stitch(int u, int v, std::vector<std::uint32_t>& out, 
             e = next;
         }
         if (cycle.size < 3) continue;
-        if (runs) add_runs(cycle, level2_edge, *runs);
+        add_runs(cycle, level2_edge, runs);
         // Patches run opposite to the cycle, so every crack edge is used once each way.
         SmallVec<std::int32_t, 10> poly;
         for (int i = cycle.size - 1; i >= 0; --i) poly.push(cycle.item[i]);
@@ -265,7 +265,7 @@ std::size_t FaceStitcher::stitch(int u, int v, std::vector<std::uint32_t>& out, 
 }  // namespace
 
 std::size_t stitch_transition_face(const Level3Block& block, int axis, int side, const FinePointMap& field,
-                                   std::vector<std::uint32_t>& out, std::vector<std::uint32_t>* runs) {
+                                   std::vector<std::uint32_t>& out, std::vector<std::uint32_t>& runs) {
     FaceStitcher stitcher(block, axis, side, field);
     std::size_t patches = 0;
     for (int v = 0; v < block.n / 2; ++v)

@@ -25,11 +25,11 @@ struct Level3Block {
 /// per level-2 fine face, the level-2 face segments and the four level-3 face segments form
 /// disjoint cycles of vertex ids; each cycle longer than 2 is triangulated in the face plane by
 /// ear clipping, opposite to its edges, avoiding diagonals that the adjacent cubes already use.
-/// Appends patch triangles (vertex ids, three per triangle) to `out`; returns how many. With
-/// `runs`, also appends each polygon's level-3 runs between two level-2 crossings that hold inner
+/// Appends patch triangles (vertex ids, three per triangle) to `out`; returns how many. Also
+/// appends to `runs` each polygon's level-3 runs between two level-2 crossings that hold inner
 /// crossings, for collapse_crack_runs (host/crack_collapse.hpp).
 /// `field` supplies the level-2 cube's values off the face. Throws Error on a broken invariant.
 std::size_t stitch_transition_face(const Level3Block& block, int axis, int side, const FinePointMap& field,
-                                   std::vector<std::uint32_t>& out, std::vector<std::uint32_t>* runs = nullptr);
+                                   std::vector<std::uint32_t>& out, std::vector<std::uint32_t>& runs);
 
 }  // namespace trilevel

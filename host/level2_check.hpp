@@ -23,8 +23,9 @@ std::vector<std::uint64_t> level2_check_points(const std::vector<CoarseCell>& ce
 /// Indices into `cells` (ascending) of the level-2 cells to make level 3: those with a cube that
 /// the surface crosses (its 8 corners and centre hold both signs) and whose centre value differs
 /// from the mean of its corners by more than `tolerance` (world units), and the level-2 cells of
-/// their 3x3x3 blocks (compact level-3 regions: a lone level-3 cell costs crack patches on all its
-/// faces). Every corner and centre must be in `field` (throws Error).
+/// their 3x3x3 blocks (compact level-3 regions, chosen while a lone level-3 cell cost crack patches
+/// on all its faces; with the crack collapse, promoting the failing cell alone was measured too and
+/// not kept: docs/design.md, "Known limits"). Every corner and centre must be in `field` (throws Error).
 std::vector<std::size_t> cells_failing_level2_check(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
                                                     const FinePointMap& field, float tolerance);
 

@@ -60,8 +60,8 @@ glm::vec3 crossing_position(const LatticeFrame& f, glm::ivec3 lower, int axis, f
 
 class CellMesher {
 public:
-    CellMesher(const LatticeFrame& frame, const FinePointMap& field, const CellIndex& cells, bool list_runs)
-        : frame_(frame), field_(field), cells_(cells), list_runs_(list_runs) {}
+    CellMesher(const LatticeFrame& frame, const FinePointMap& field, const CellIndex& cells)
+        : frame_(frame), field_(field), cells_(cells) {}
 
     void mesh(const CoarseCell& cell, Scratch& s, ChunkOut& out) const;
 
@@ -69,7 +69,6 @@ private:
     const LatticeFrame& frame_;
     const FinePointMap& field_;
     const CellIndex& cells_;
-    const bool list_runs_;
     bool gather(const CoarseCell& cell, int n, Scratch& s) const;
     void stitch(const CoarseCell& cell, Scratch& s, ChunkOut& out) const;
     void level2_midpoints(const CoarseCell& cell, int n, Scratch& s) const;
@@ -207,8 +206,7 @@ void CellMesher::stitch(const CoarseCell& cell, Scratch& s, ChunkOut& out) const
             if (cells_.level(nb) != 2) continue;
             const Level3Block block{cell.coord * frame_.coarse_steps, frame_.coarse_steps, s.values.data(),
                                     s.slots.data(), out.positions.data()};
-            const std::size_t patches =
-                stitch_transition_face(block, axis, side, field_, out.triangles, list_runs_ ? &out.crack_runs : nullptr);
+            const std::size_t patches = stitch_transition_face(block, axis, side, field_, out.triangles, out.crack_runs);
             out.kinds.insert(out.kinds.end(), patches, TriangleKind::Patch);
         }
 }
@@ -314,7 +312,7 @@ Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame&
     if (frame.coarse_steps < 2 || frame.coarse_steps % 2) throw Error("triangulation: coarse_steps must be even");
     // Phases 1-2 as a pipeline: chunks are meshed in parallel and numbered in order meanwhile.
     const CellIndex cell_index(cells);
-    const CellMesher mesher(frame, field, cell_index, closing == CrackClosing::Collapse);
+    const CellMesher mesher(frame, field, cell_index);
     const std::size_t nc = (cells.size() + kCellsPerChunk - 1) / kCellsPerChunk;
     std::vector<ChunkOut> chunks(nc);
     std::vector<std::vector<std::uint32_t>> ids(nc);
@@ -341,7 +339,7 @@ Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame&
     index.reset();  // freed before phase 3 allocates the mesh's triangles (the run's peak at x64)
     scratch.reset();
 
-    const CrackRuns runs = global_runs(chunks, ids);
+    const CrackRuns runs = closing == CrackClosing::Collapse ? global_runs(chunks, ids) : CrackRuns{};
     // Phase 3: triangles with global indices, in chunk order.
     std::vector<std::size_t> tri_offset(nc + 1, 0);
     for (std::size_t ci = 0; ci < nc; ++ci) tri_offset[ci + 1] = tri_offset[ci] + chunks[ci].kinds.size();
