@@ -2,16 +2,20 @@
 //
 // As in the paper, only level-2 cells with a level-3 neighbour do work: across a face (the whole
 // closed face) or across a coarse edge (that edge). Their level-2 values are gathered into a local
-// block first; the boundary points are then looked up in one batch and overwritten.
+// block first; the midpoints of their uncrossed boundary edges are then looked up in one batch
+// and overwritten.
 #include "transition_continuity.hpp"
 
 #include <atomic>
+#include <cmath>
+#include <limits>
 
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include "cell_index.hpp"
+#include "marching_cubes.hpp"
 #include "trilevel/trilevel.hpp"
 
 namespace trilevel {
@@ -44,12 +48,13 @@ private:
     float interpolated(const Scratch& s, glm::ivec3 p) const;
 };
 
-// Odd points of the closed face (axis, side), local coordinates.
+// Midpoints of the level-2 edges of the closed face (axis, side), local coordinates: one of the
+// two in-face coordinates odd. Face centres (both odd) keep their field values.
 void CellFixer::add_face(int axis, int side, Scratch& s) const {
     const int b = (axis + 1) % 3, c = (axis + 2) % 3;
     for (int j = 0; j <= cs_; ++j)
         for (int i = 0; i <= cs_; ++i) {
-            if (((i | j) & 1) == 0) continue;
+            if (((i ^ j) & 1) == 0) continue;
             glm::ivec3 p{0};
             p[axis] = side * cs_;
             p[b] = i;
@@ -58,7 +63,7 @@ void CellFixer::add_face(int axis, int side, Scratch& s) const {
         }
 }
 
-// Odd points of the coarse edge along `axis` on sides sb (of axis+1) and sc (of axis+2).
+// Midpoints of the level-2 edges on the coarse edge along `axis` on sides sb (of axis+1) and sc (of axis+2).
 void CellFixer::add_edge(int axis, int sb, int sc, Scratch& s) const {
     for (int i = 1; i < cs_; i += 2) {
         glm::ivec3 p{0};
@@ -69,17 +74,15 @@ void CellFixer::add_edge(int axis, int sb, int sc, Scratch& s) const {
     }
 }
 
-// DESIGN §7: one odd coordinate -> edge midpoint; two -> face centre, fixed argument order.
+// The midpoint p of a level-2 edge (one odd coordinate): the linear value of its ends (DESIGN §7)
+// where they have the same sign; NaN, meaning "keep the field value", where the edge is crossed.
 float CellFixer::interpolated(const Scratch& s, glm::ivec3 p) const {
-    int odd[2], n = 0;
+    glm::ivec3 e{0};
     for (int a = 0; a < 3; ++a)
-        if (p[a] & 1) odd[n++] = a;
-    glm::ivec3 e0{0}, e1{0};
-    e0[odd[0]] = 1;
-    if (n == 1) return lattice::edge_midpoint_value(even_value(s, p - e0), even_value(s, p + e0));
-    e1[odd[1]] = 1;
-    return lattice::face_centre_value(even_value(s, p - e0 - e1), even_value(s, p + e0 - e1),
-                                      even_value(s, p - e0 + e1), even_value(s, p + e0 + e1));
+        if (p[a] & 1) e[a] = 1;
+    const float va = even_value(s, p - e), vb = even_value(s, p + e);
+    if (mc::inside(va) != mc::inside(vb)) return std::numeric_limits<float>::quiet_NaN();
+    return lattice::edge_midpoint_value(va, vb);
 }
 
 void CellFixer::fix(const CoarseCell& cell, Scratch& s) const {
@@ -113,9 +116,13 @@ void CellFixer::fix(const CoarseCell& cell, Scratch& s) const {
     for (const glm::ivec3& p : s.points) s.keys.push_back(lattice::pack(base + p));
     s.found.resize(s.keys.size());
     find_batch(field_, s.keys.data(), s.keys.size(), s.found.data());
-    for (std::size_t i = 0; i < s.points.size(); ++i)
-        if (s.found[i])  // cells sharing the point store the same value: relaxed atomics keep it race-free
-            std::atomic_ref<float>(*s.found[i]).store(interpolated(s, s.points[i]), std::memory_order_relaxed);
+    for (std::size_t i = 0; i < s.points.size(); ++i) {
+        if (!s.found[i]) continue;
+        const float value = interpolated(s, s.points[i]);
+        if (std::isnan(value)) continue;  // a crossed edge keeps the field's (true) midpoint value
+        // Cells sharing the point store the same value: relaxed atomics keep it race-free.
+        std::atomic_ref<float>(*s.found[i]).store(value, std::memory_order_relaxed);
+    }
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <random>
 
 #include "band_closure.hpp"
+#include "marching_cubes.hpp"
 #include "mesh_test_support.hpp"
 #include "surface_mesher.hpp"
 #include "test_support.hpp"
@@ -143,27 +144,35 @@ TEST_CASE("band closure iterated on mixed levels gives closed meshes", "[mesh]")
     }
 }
 
-TEST_CASE("transition continuity: interpolated values, idempotent, level-2 lattice untouched", "[mesh]") {
+TEST_CASE("transition continuity: uncrossed midpoints interpolated, crossed ones and the rest kept, idempotent",
+          "[mesh]") {
     const LatticeFrame frame{glm::vec3(0.0f), 1.0f, 4};
     const std::vector<CoarseCell> cells = {{{1, 1, 1}, 2}, {{2, 1, 1}, 3}, {{2, 2, 1}, 3}, {{1, 2, 2}, 3}};
+    // Level-2 points (all coordinates even) inside where x + y + z <= 21, so that some boundary
+    // edges are crossed and some not; the other points random, of either sign.
     std::mt19937 rng(7);
-    FinePointMap field = test::make_field(cells, frame, [&](glm::ivec3) {
-        return std::uniform_real_distribution<float>(-1.0f, 1.0f)(rng);
+    FinePointMap field = test::make_field(cells, frame, [&](glm::ivec3 p) {
+        const float u = std::uniform_real_distribution<float>(0.1f, 1.0f)(rng);
+        if ((p.x | p.y | p.z) & 1) return rng() % 2 ? u : -u;
+        return p.x + p.y + p.z <= 21 ? -u : u;
     });
     const FinePointMap before = field;
     apply_transition_continuity(cells, frame, field);
-    // Face between (1,1,1) and (2,1,1): x = 8; y, z in [4, 8].
     auto v = [&](int x, int y, int z) { return *field.find(glm::ivec3(x, y, z)); };
-    CHECK(v(8, 5, 4) == lattice::edge_midpoint_value(v(8, 4, 4), v(8, 6, 4)));
-    CHECK(v(8, 6, 7) == lattice::edge_midpoint_value(v(8, 6, 6), v(8, 6, 8)));
-    CHECK(v(8, 5, 7) == lattice::face_centre_value(v(8, 4, 6), v(8, 6, 6), v(8, 4, 8), v(8, 6, 8)));
+    auto was = [&](int x, int y, int z) { return *before.find(glm::ivec3(x, y, z)); };
+    // Face between (1,1,1) and (2,1,1): x = 8; y, z in [4, 8].
+    CHECK(v(8, 5, 4) == lattice::edge_midpoint_value(v(8, 4, 4), v(8, 6, 4)));  // sums 16, 18: uncrossed
+    CHECK(v(8, 7, 6) == was(8, 7, 6));  // sums 20, 22: crossed, the field's value stays
+    CHECK(v(8, 5, 7) == was(8, 5, 7));  // the centre of a level-2 square stays
     // Coarse edge shared with the diagonal neighbour (2,2,1): x = 8, y = 8, z odd.
-    CHECK(v(8, 8, 5) == lattice::edge_midpoint_value(v(8, 8, 4), v(8, 8, 6)));
+    CHECK(v(8, 8, 5) == was(8, 8, 5));  // 20, 22: crossed
+    CHECK(v(8, 8, 7) == lattice::edge_midpoint_value(v(8, 8, 6), v(8, 8, 8)));  // 22, 24
     // Edge shared with (1,2,2): y = 8, z = 8, x odd.
-    CHECK(v(5, 8, 8) == lattice::edge_midpoint_value(v(4, 8, 8), v(6, 8, 8)));
+    CHECK(v(5, 8, 8) == was(5, 8, 8));  // 20, 22: crossed
+    CHECK(v(7, 8, 8) == lattice::edge_midpoint_value(v(6, 8, 8), v(8, 8, 8)));  // 22, 24
     // Points off any level-2 boundary and level-2 lattice points keep their values.
-    CHECK(v(9, 5, 5) == *before.find(glm::ivec3(9, 5, 5)));
-    CHECK(v(8, 6, 6) == *before.find(glm::ivec3(8, 6, 6)));
+    CHECK(v(9, 5, 5) == was(9, 5, 5));
+    CHECK(v(8, 6, 6) == was(8, 6, 6));
     const FinePointMap once = field;
     apply_transition_continuity(cells, frame, field);
     CHECK(std::ranges::equal(field.values(), once.values()));
@@ -193,17 +202,13 @@ TEST_CASE("transition continuity matches a brute-force reference on random mixed
                     test::on_box_boundary(p, lo, hi))
                     on_level2_boundary = true;
             }
-            const bool odd = (p.x | p.y | p.z) & 1;
             auto v0 = [&](glm::ivec3 q) { return *before.find(q); };
             float expect = *before.find(p);
-            if (on_level2_boundary && odd) {
-                glm::ivec3 e[2] = {glm::ivec3(0), glm::ivec3(0)};
-                int n = 0;
-                for (int a = 0; a < 3; ++a)
-                    if (p[a] & 1) e[n++] = glm::ivec3(a == 0, a == 1, a == 2);
-                expect = n == 1 ? lattice::edge_midpoint_value(v0(p - e[0]), v0(p + e[0]))
-                                : lattice::face_centre_value(v0(p - e[0] - e[1]), v0(p + e[0] - e[1]),
-                                                             v0(p - e[0] + e[1]), v0(p + e[0] + e[1]));
+            const int odd = (p.x & 1) + (p.y & 1) + (p.z & 1);
+            if (on_level2_boundary && odd == 1) {  // a level-2 edge midpoint: interpolated if uncrossed
+                const glm::ivec3 e(p.x & 1, p.y & 1, p.z & 1);
+                const float a = v0(p - e), b = v0(p + e);
+                if (mc::inside(a) == mc::inside(b)) expect = lattice::edge_midpoint_value(a, b);
             }
             mismatches += field.values()[s] != expect;
         }
