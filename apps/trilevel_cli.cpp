@@ -427,7 +427,7 @@ int run(int argc, char** argv) {
     rec->add_option("--curvature-threshold", ra.threshold, "Adaptive mode level-3 threshold (default: calibrated)");
     rec->add_option("--level2-tolerance", ra.level2_tolerance,
                     "Adaptive mode: also refine level-2 cells whose lattice misses the field at a cube centre by more "
-                    "than this many r (default 0 = off; 0.5 with --curvature-threshold 8 for resampled particles)");
+                    "than this many r, where the curvature is not clearly flat (default 0.32; 0 = off)");
     rec->add_option("--crack-closing", ra.crack_closing,
                     "Adaptive mode: 'collapse' (default: inner crack crossings merged into the level-2 ones) or "
                     "'patches' (every crack triangulated, paper 3.3.2)");

@@ -71,38 +71,32 @@ bool cell_fails(const FinePointMap& field, const CoarseCell& c, int cs, float to
 
 }  // namespace
 
-std::vector<std::uint64_t> level2_check_points(const std::vector<CoarseCell>& cells, const LatticeFrame& frame) {
+std::vector<std::uint64_t> level2_check_points(const std::vector<CoarseCell>& cells, const std::vector<std::uint8_t>& checked,
+                                               const LatticeFrame& frame) {
+    if (checked.size() != cells.size()) throw Error("level-2 check: one flag per cell expected");
     std::vector<std::uint64_t> keys;
-    for (const auto& c : cells)
-        if (c.level == 2)
-            for_each_level2_cube(c, frame.coarse_steps, [&](glm::ivec3 lo) { keys.push_back(lattice::pack(lo + glm::ivec3(1))); });
+    for (std::size_t i = 0; i < cells.size(); ++i)
+        if (cells[i].level == 2 && checked[i])
+            for_each_level2_cube(cells[i], frame.coarse_steps,
+                                 [&](glm::ivec3 lo) { keys.push_back(lattice::pack(lo + glm::ivec3(1))); });
     std::sort(keys.begin(), keys.end());  // unique already: a centre lies inside its own cell
     return keys;
 }
 
-std::vector<std::size_t> cells_failing_level2_check(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
+std::vector<std::size_t> cells_failing_level2_check(const std::vector<CoarseCell>& cells,
+                                                    const std::vector<std::uint8_t>& checked, const LatticeFrame& frame,
                                                     const FinePointMap& field, float tolerance) {
+    if (checked.size() != cells.size()) throw Error("level-2 check: one flag per cell expected");
     std::vector<std::uint8_t> fails(cells.size(), 0);
     tbb::enumerable_thread_specific<CellValues> scratch;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 256), [&](const auto& range) {
         CellValues& v = scratch.local();
         for (std::size_t i = range.begin(); i != range.end(); ++i)
-            if (cells[i].level == 2) fails[i] = cell_fails(field, cells[i], frame.coarse_steps, tolerance, v);
+            if (cells[i].level == 2 && checked[i]) fails[i] = cell_fails(field, cells[i], frame.coarse_steps, tolerance, v);
     });
-    std::vector<CoarseCell> failing;  // the block relation is symmetric: a cell is promoted when a failing cell is in its block
-    for (std::size_t i = 0; i < cells.size(); ++i)
-        if (fails[i]) failing.push_back(cells[i]);
-    const CellIndex near_failing(failing);
     std::vector<std::size_t> out;
-    for (std::size_t i = 0; i < cells.size(); ++i) {
-        if (cells[i].level != 2) continue;
-        bool promote = false;
-        for (int dz = -1; dz <= 1 && !promote; ++dz)
-            for (int dy = -1; dy <= 1 && !promote; ++dy)
-                for (int dx = -1; dx <= 1 && !promote; ++dx)
-                    promote = near_failing.level(cells[i].coord + glm::ivec3(dx, dy, dz)) != 0;
-        if (promote) out.push_back(i);
-    }
+    for (std::size_t i = 0; i < cells.size(); ++i)
+        if (fails[i]) out.push_back(i);
     return out;
 }
 

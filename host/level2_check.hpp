@@ -17,16 +17,20 @@
 namespace trilevel {
 
 /// Lattice keys (lattice::pack) of the centres of the level-2 cubes of every level-2 cell in
-/// `cells`, sorted and unique. The centres lie inside their cell, so no two cells share one.
-std::vector<std::uint64_t> level2_check_points(const std::vector<CoarseCell>& cells, const LatticeFrame& frame);
+/// `cells` with `checked` set (same length as `cells`), sorted and unique. The centres lie inside
+/// their cell, so no two cells share one.
+std::vector<std::uint64_t> level2_check_points(const std::vector<CoarseCell>& cells, const std::vector<std::uint8_t>& checked,
+                                               const LatticeFrame& frame);
 
-/// Indices into `cells` (ascending) of the level-2 cells to make level 3: those with a cube that
-/// the surface crosses (its 8 corners and centre hold both signs) and whose centre value differs
-/// from the mean of its corners by more than `tolerance` (world units), and the level-2 cells of
-/// their 3x3x3 blocks (compact level-3 regions, chosen while a lone level-3 cell cost crack patches
-/// on all its faces; with the crack collapse, promoting the failing cell alone was measured too and
-/// not kept: docs/design.md, "Known limits"). Every corner and centre must be in `field` (throws Error).
-std::vector<std::size_t> cells_failing_level2_check(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
+/// Indices into `cells` (ascending) of the level-2 cells with `checked` set to make level 3:
+/// those with a cube that the surface crosses (its 8 corners and centre hold both signs) and whose
+/// centre value differs from the mean of its corners by more than `tolerance` (world units). Only
+/// the failing cell: with the crack collapse a lone level-3 cell no longer costs crack patches on
+/// its faces, and the 3x3x3 block that each failing cell once took with it (while it did) cost
+/// more triangles than accuracy (docs/design.md, "Level-2 check"). Every corner and centre of a
+/// checked cell must be in `field` (throws Error).
+std::vector<std::size_t> cells_failing_level2_check(const std::vector<CoarseCell>& cells,
+                                                    const std::vector<std::uint8_t>& checked, const LatticeFrame& frame,
                                                     const FinePointMap& field, float tolerance);
 
 }  // namespace trilevel

@@ -63,7 +63,7 @@ struct ReconstructOptions {
     float cell = 1.0f;
     float kernel_radius = 4.0f;
     float curvature_threshold = 0.0f;
-    float level2_tolerance = 0.0f;
+    float level2_tolerance = trilevel::Params{}.level2_tolerance;
     std::uint64_t memory_limit = 0;
     float level_hysteresis = 0.0f;
     std::string crack_closing = "collapse";  ///< "collapse" or "patches"
@@ -190,7 +190,7 @@ void define_reconstruct(py::class_<PyReconstructor>& cls, py::module_& m, const 
     const auto args = std::make_tuple(
         py::arg("positions"), py::arg("particle_radius"), py::kw_only(), py::arg("mode") = "adaptive",
         py::arg("cell") = 1.0f, py::arg("kernel_radius") = 4.0f, py::arg("curvature_threshold") = 0.0f,
-        py::arg("level2_tolerance") = 0.0f, py::arg("memory_limit") = 0, py::arg("level_hysteresis") = 0.0f,
+        py::arg("level2_tolerance") = trilevel::Params{}.level2_tolerance, py::arg("memory_limit") = 0, py::arg("level_hysteresis") = 0.0f,
         py::arg("crack_closing") = "collapse", py::arg("normals") = py::none(), py::arg("attributes") = py::none(), py::arg("return_levels") = false);
     std::apply([&](auto... a) {
         cls.def("reconstruct",
@@ -223,7 +223,8 @@ kernel_radius: SPH kernel support R in multiples of r, in [1, 16].
 curvature_threshold: adaptive mode: mean cell curvature from which a coarse cell is meshed with
     cells of r; 0 picks the calibrated default (trilevel.default_curvature_threshold()).
 level2_tolerance: adaptive mode: also mesh with cells of r where the level-2 lattice misses the
-    field at a cube centre by more than this many r (CLI --level2-tolerance); 0 = off.
+    field at a cube centre by more than this many r, in cells whose curvature is not clearly flat
+    (CLI --level2-tolerance; default 0.32, as the library's); 0 = off.
 memory_limit: budget in bytes for the largest allocations; 0: the device's and host's limits.
 level_hysteresis: adaptive mode, frame sequences on one Reconstructor: a coarse cell keeps its
     previous frame's level until its curvature passes the threshold by this fraction of it, in

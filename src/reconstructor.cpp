@@ -212,10 +212,11 @@ void on_device(OpenCLRuntime& rt, FinePoints& points, FinePointMap& field, F&& d
 /// continuity: the level-2 cells that fail it become level 3 and get their remaining points
 /// (`field` is re-mapped then). Returns how many.
 std::size_t promote_failing_cells(OpenCLRuntime& rt, FinePoints& points, FinePointMap& field,
-                                  std::vector<CoarseCell>& cells, const LatticeFrame& frame,
-                                  const BinnedParticles& bins, float r, float R, float tolerance) {
+                                  std::vector<CoarseCell>& cells, const std::vector<std::uint8_t>& checked,
+                                  const LatticeFrame& frame, const BinnedParticles& bins, float r, float R,
+                                  float tolerance) {
     std::vector<CoarseCell> promoted;
-    for (std::size_t i : cells_failing_level2_check(cells, frame, field, tolerance)) {
+    for (std::size_t i : cells_failing_level2_check(cells, checked, frame, field, tolerance)) {
         cells[i].level = 3;
         promoted.push_back(cells[i]);
     }
@@ -229,7 +230,7 @@ std::size_t promote_failing_cells(OpenCLRuntime& rt, FinePoints& points, FinePoi
 /// repeat. Returns a view of the mapped fine-point table; `cells` gains the added cells.
 FinePointMap close_band(OpenCLRuntime& rt, FinePoints& points, std::vector<CoarseCell>& cells,
                         const LatticeFrame& frame, const BinnedParticles& bins, float r, float R,
-                        float level2_tolerance, Stats& s) {
+                        const std::vector<std::uint8_t>& checked, float level2_tolerance, Stats& s) {
     std::vector<CoarseCell> fresh = cells;
     double t_field = 0, t_closure = 0;
     for (bool first = true;; first = false) {
@@ -237,7 +238,7 @@ FinePointMap close_band(OpenCLRuntime& rt, FinePoints& points, std::vector<Coars
         rt.set_stage("scalar_field");
         const bool check = first && level2_tolerance > 0.0f;  // the cube centres join the first pass
         if (check) {
-            const std::vector<std::uint64_t> centres = level2_check_points(cells, frame);
+            const std::vector<std::uint64_t> centres = level2_check_points(cells, checked, frame);
             reserve_fine_points(rt, points, fresh, frame, centres.size());
             insert_points(rt, points, centres);
         }
@@ -245,7 +246,8 @@ FinePointMap close_band(OpenCLRuntime& rt, FinePoints& points, std::vector<Coars
                             check ? ClaimPoints::LevelAndCubeCentres : ClaimPoints::Level);
         FinePointMap field = map_fine_points(rt, points);
         if (check)
-            s.level2_check_cells = promote_failing_cells(rt, points, field, cells, frame, bins, r, R, level2_tolerance);
+            s.level2_check_cells =
+                promote_failing_cells(rt, points, field, cells, checked, frame, bins, r, R, level2_tolerance);
         auto t1 = Clock::now();
         rt.set_stage("band_closure");
         apply_transition_continuity(cells, frame, field);
@@ -510,7 +512,11 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     Mesh mesh;
     if (!cells.empty()) {  // particles without surface (none can be: a safety net) give an empty mesh
         const float tolerance = g.forced_level == 0 ? p.level2_tolerance * r : 0.0f;  // 0: off
-        FinePointMap field = close_band(rt, points, cells, g.frame, bins, r, R, tolerance, s);
+        // The check's second opinion is asked where the curvature is not clearly flat.
+        std::vector<std::uint8_t> checked(cells.size(), 0);
+        for (std::size_t i = 0; i < cells.size() && i < sc.curvature.size() && tolerance > 0.0f; ++i)
+            checked[i] = sc.curvature[i] >= constants::kLevel2CheckCurvature;
+        FinePointMap field = close_band(rt, points, cells, g.frame, bins, r, R, checked, tolerance, s);
         timer.restart();  // close_band recorded its own two entries
         rt.set_stage("edge_refinement");
         refine_level2_edges(rt, points, field, cells, g.frame, bins, r, R);

@@ -69,11 +69,24 @@ static_assert(kCurvatureSmoothingPasses >= 1, "the last pass writes the cell cur
 /// per point on every scene measured); 40 bytes a point bound the mesh and its edge maps.
 constexpr double kMeshBytesPerFinePoint = 40.0;
 
-/// Calibrated default of the curvature threshold (README, "Levels and choosing the threshold"): the
-/// largest value whose p99 deviation from the uniform r mesh stays within 0.5 r on every scene
-/// measured (x8 resampling: 0.41 r at 4.5, 0.51 r at 5). It was 4 while crack patches were a
-/// limit too (x8 at 4.5: 1.15% patches); the collapse (host/crack_collapse.hpp) removed them.
-constexpr float kDefaultCurvatureThreshold = 4.5f;
+/// The level-2 check (host/level2_check.hpp) examines only level-2 cells whose cell curvature is
+/// at least this: below it the particles say flat and ordered and the level-2 lattice is trusted.
+/// On the dam-break frame 23 (median cell curvature 0.56) its field is rippled at the particle
+/// spacing, so cube centres miss the lattice's value by 0.3-0.4 r where the meshes agree (p99 0.2
+/// r): checked everywhere at 0.3 r it promoted 12% more cells for no accuracy the target needs
+/// (triangles 0.384 -> 0.435 of uniform r). Disordered (resampled) flat water sits at curvature
+/// about 4 (x8: median 4.2), so there the check still decides. Measured with the check at 0.3 r
+/// and threshold 16: x8 0.399 both ways (p99 0.42 r), frame 23 0.435 everywhere, 0.389 with this
+/// gate (README, "Levels and choosing the threshold").
+constexpr float kLevel2CheckCurvature = 3.0f;
+
+/// Calibrated default of the curvature threshold (README, "Levels and choosing the threshold"),
+/// with the level-2 check on at its default tolerance (Params::level2_tolerance, 0.32 r): cells above
+/// it are level 3 outright, cells from kLevel2CheckCurvature to it are checked. The check measures
+/// the lattice error itself, so the threshold only sends clearly curved cells ahead: x8 resampling
+/// 0.384 of uniform r's triangles at p99 0.447 r (16: 0.380, the same p99); frame 23 0.389 either
+/// way. Without the check (tolerance 0) 4.5 is the value that keeps p99 within 0.5 r on x8.
+constexpr float kDefaultCurvatureThreshold = 8.0f;
 
 /// The scalar field's support ends where q = 1 - s^2 falls to kSupportCut (s = |x - x_j| / R above
 /// 0.999), not at s = 1: k_j there is under 1e-8 of its peak. The cut keeps every particle a fine

@@ -27,10 +27,13 @@ std::vector<CoarseCell> row_cells() {
     return cells;
 }
 
+/// Every cell checked.
+std::vector<std::uint8_t> all(const std::vector<CoarseCell>& cells) { return std::vector<std::uint8_t>(cells.size(), 1); }
+
 /// The field of `cells` from f, with the level-2 cube centres added.
 FinePointMap field_with_centres(const std::vector<CoarseCell>& cells, const std::function<float(glm::ivec3)>& f) {
     FinePointMap map = test::make_field(cells, kFrame, f);
-    for (std::uint64_t key : level2_check_points(cells, kFrame)) map.insert(key, f(lattice::unpack(key)));
+    for (std::uint64_t key : level2_check_points(cells, all(cells), kFrame)) map.insert(key, f(lattice::unpack(key)));
     return map;
 }
 
@@ -38,8 +41,12 @@ FinePointMap field_with_centres(const std::vector<CoarseCell>& cells, const std:
 
 TEST_CASE("level-2 check: one centre per level-2 cube, inside its cell", "[mesh]") {
     const auto cells = row_cells();
-    const auto keys = level2_check_points(cells, kFrame);
+    const auto keys = level2_check_points(cells, all(cells), kFrame);
     CHECK(keys.size() == 6 * 8);  // six level-2 cells of 2x2x2 cubes; the level-3 cell has none
+    std::vector<std::uint8_t> some = all(cells);
+    some[0] = some[6] = 0;
+    CHECK(level2_check_points(cells, some, kFrame).size() == 4 * 8);  // unchecked cells have none
+    CHECK_THROWS_AS(level2_check_points(cells, std::vector<std::uint8_t>(3, 1), kFrame), Error);
     CHECK(std::is_sorted(keys.begin(), keys.end()));
     for (std::uint64_t k : keys) {
         const glm::ivec3 p = lattice::unpack(k);
@@ -47,26 +54,25 @@ TEST_CASE("level-2 check: one centre per level-2 cube, inside its cell", "[mesh]
     }
 }
 
-TEST_CASE("level-2 check: a linear field passes, a bump promotes its cell and the level-2 cells of its block", "[mesh]") {
+TEST_CASE("level-2 check: a linear field passes, a bump promotes its cell alone, unchecked cells never", "[mesh]") {
     const auto cells = row_cells();
     auto plane = [](glm::ivec3 p) { return float(p.z) - 21.3f; };  // crosses every cell at z = 21.3
     // Trilinear interpolation reproduces a linear field: no cell fails, whatever the tolerance.
-    CHECK(cells_failing_level2_check(cells, kFrame, field_with_centres(cells, plane), 1e-4f).empty());
+    CHECK(cells_failing_level2_check(cells, all(cells), kFrame, field_with_centres(cells, plane), 1e-4f).empty());
 
     // The centre (21, 21, 21) of a crossed cube of cell (5, 5, 5) sits 0.8 off the plane's value.
     const glm::ivec3 bump(21, 21, 21);
     auto bumped = [&](glm::ivec3 p) { return plane(p) + (p == bump ? -0.8f : 0.0f); };
     const FinePointMap field = field_with_centres(cells, bumped);
-    const auto promoted = cells_failing_level2_check(cells, kFrame, field, 0.5f);
-    std::vector<glm::ivec3> coords;
-    for (std::size_t i : promoted) coords.push_back(cells[i].coord);
-    CHECK(std::is_sorted(promoted.begin(), promoted.end()));
-    REQUIRE(coords.size() == 3);  // (5,5,5) and its level-2 block neighbours (4,5,5), (6,5,5)
-    CHECK(coords[0] == glm::ivec3(4, 5, 5));
-    CHECK(coords[1] == glm::ivec3(5, 5, 5));
-    CHECK(coords[2] == glm::ivec3(6, 5, 5));
+    const auto promoted = cells_failing_level2_check(cells, all(cells), kFrame, field, 0.5f);
+    REQUIRE(promoted.size() == 1);  // (5,5,5) alone, not its level-2 neighbours (4,5,5), (6,5,5)
+    CHECK(cells[promoted[0]].coord == glm::ivec3(5, 5, 5));
     // A tolerance above the gap promotes nothing.
-    CHECK(cells_failing_level2_check(cells, kFrame, field, 0.9f).empty());
+    CHECK(cells_failing_level2_check(cells, all(cells), kFrame, field, 0.9f).empty());
+    // Nor does the check where it is not asked (the cell's curvature says flat).
+    std::vector<std::uint8_t> checked = all(cells);
+    checked[2] = 0;  // (5,5,5)
+    CHECK(cells_failing_level2_check(cells, checked, kFrame, field, 0.5f).empty());
 }
 
 TEST_CASE("level-2 check: cubes the surface does not cross are never promoted, missing points are errors", "[mesh]") {
@@ -74,24 +80,26 @@ TEST_CASE("level-2 check: cubes the surface does not cross are never promoted, m
     // All positive (air), with a large gap at one centre: no surface there to misplace.
     const glm::ivec3 bump(21, 21, 21);
     auto air = [&](glm::ivec3 p) { return 5.0f + (p == bump ? 3.0f : 0.0f); };
-    CHECK(cells_failing_level2_check(cells, kFrame, field_with_centres(cells, air), 0.5f).empty());
+    CHECK(cells_failing_level2_check(cells, all(cells), kFrame, field_with_centres(cells, air), 0.5f).empty());
     // A centre the surface reaches only there (the corners all outside): crossed, promoted.
     auto droplet = [&](glm::ivec3 p) { return p == bump ? -1.0f : 1.0f; };
-    CHECK(cells_failing_level2_check(cells, kFrame, field_with_centres(cells, droplet), 0.5f).size() == 3);
+    CHECK(cells_failing_level2_check(cells, all(cells), kFrame, field_with_centres(cells, droplet), 0.5f).size() == 1);
     // Without the centres the check cannot run.
     const FinePointMap no_centres = test::make_field(cells, kFrame, droplet);
-    CHECK_THROWS_AS(cells_failing_level2_check(cells, kFrame, no_centres, 0.5f), Error);
+    CHECK_THROWS_AS(cells_failing_level2_check(cells, all(cells), kFrame, no_centres, 0.5f), Error);
 }
 
-TEST_CASE("level-2 check end to end: closed, deterministic, more level-3 cells, off by default", "[e2e]") {
+TEST_CASE("level-2 check end to end: closed, deterministic, more level-3 cells, on by default", "[e2e]") {
     const float r = 0.025f;
     const ParticleSet s = generate_scene("pool-and-drop", r, 1);
     Reconstructor rec;
     Params p;
     p.particle_radius = r;
+    CHECK(p.level2_tolerance > 0.0f);  // the default checks
     Stats off, on, again;
+    p.level2_tolerance = 0.0f;
     const Mesh m_off = rec.reconstruct(s.positions.data(), s.size(), p, &off);
-    p.level2_tolerance = 0.5f;
+    p.level2_tolerance = 0.1f;  // tight, so that this scene's few non-flat cells fail
     const Mesh m_on = rec.reconstruct(s.positions.data(), s.size(), p, &on);
     const Mesh m_again = rec.reconstruct(s.positions.data(), s.size(), p, &again);
     INFO("level-2 cells promoted: " << on.level2_check_cells);

@@ -54,11 +54,11 @@ struct Params {
     float curvature_threshold = 0.0f;  ///< adaptive mode: mean cell curvature (paper eq. 3) at which a
                                        ///< coarse cell becomes level 3; 0 picks the calibrated default.
                                        ///< Dimensionless: sum over neighbours of (1 - n_i.n_j)(1 - d/R)
-    float level2_tolerance = 0.0f;     ///< adaptive mode, the level-2 check (host/level2_check.hpp): a level-2
-                                       ///< cell becomes level 3, with the level-2 cells of its 3x3x3 block, where
+    float level2_tolerance = 0.32f;    ///< adaptive mode, the level-2 check (host/level2_check.hpp): a level-2
+                                       ///< cell whose curvature is not clearly flat (>= 3) becomes level 3 where
                                        ///< the field at the centre of one of its crossed cubes of 2r differs from
-                                       ///< the trilinear value by more than this many r; 0 = off (README: 0.5 with
-                                       ///< curvature threshold 8 suits resampled or disordered particles)
+                                       ///< the trilinear value by more than this many r; 0 = off (then curvature
+                                       ///< alone decides: README, "Levels and choosing the threshold")
     std::uint64_t memory_limit_bytes = 0;  ///< bytes; budget for the largest allocations; 0: device and host limits
     float level_hysteresis = 0.0f;     ///< adaptive mode, frame sequences: a coarse cell keeps its level of the
                                        ///< previous frame until its curvature passes the threshold by this

@@ -87,7 +87,7 @@ class ReconstructTest(unittest.TestCase):
         self.assertGreater(s_low["surface_cells_by_level"]["3"], s_adaptive["surface_cells_by_level"]["3"])
         _, _, s_checked = self.rec.reconstruct(self.sphere, R, curvature_threshold=8.0, level2_tolerance=0.5)
         self.assertEqual(s_checked["parameters"]["level2_tolerance"], np.float32(0.5))
-        self.assertEqual(s_adaptive["parameters"]["level2_tolerance"], 0.0)
+        self.assertEqual(s_adaptive["parameters"]["level2_tolerance"], np.float32(0.32))  # on by default
         self.assertTrue(s_checked["closed"])
 
     def test_reused_reconstructor_and_one_shot_call_agree_bit_for_bit(self):
@@ -188,15 +188,15 @@ class ReconstructTest(unittest.TestCase):
 
     def test_level_hysteresis_and_reset_history(self):
         frames = [trilevel.generate_scene("falling-drop", R, frame=f) for f in range(0, 24, 2)]
-        held = {}  # at threshold 4, which the scene's drops cross (the default 4.5 they cross less)
+        held = {}  # curvature alone (check off) at threshold 4, which the scene's drops cross
         for h in (0.0, 0.2):
             rec = trilevel.Reconstructor()
-            _, _, first = rec.reconstruct(frames[0], R, level_hysteresis=h, curvature_threshold=4.0)
+            _, _, first = rec.reconstruct(frames[0], R, level_hysteresis=h, curvature_threshold=4.0, level2_tolerance=0.0)
             self.assertNotIn("level_flips", first)  # nothing to compare the first frame with
             self.assertEqual(first["parameters"]["level_hysteresis"], np.float32(h))
             held[h] = 0
             for p in frames[1:]:
-                _, _, stats = rec.reconstruct(p, R, level_hysteresis=h, curvature_threshold=4.0)
+                _, _, stats = rec.reconstruct(p, R, level_hysteresis=h, curvature_threshold=4.0, level2_tolerance=0.0)
                 flips = stats["level_flips"]
                 self.assertGreater(flips["compared"], 0)
                 self.assertLessEqual(flips["changed"], flips["compared"])
@@ -204,9 +204,9 @@ class ReconstructTest(unittest.TestCase):
             # After reset_history the next frame is reconstructed as if alone: no comparison, and
             # the same mesh as a fresh Reconstructor gives.
             rec.reset_history()
-            v, t, stats = rec.reconstruct(frames[-1], R, level_hysteresis=h, curvature_threshold=4.0)
+            v, t, stats = rec.reconstruct(frames[-1], R, level_hysteresis=h, curvature_threshold=4.0, level2_tolerance=0.0)
             self.assertNotIn("level_flips", stats)
-            fv, ft, _ = trilevel.reconstruct(frames[-1], R, level_hysteresis=h, curvature_threshold=4.0)
+            fv, ft, _ = trilevel.reconstruct(frames[-1], R, level_hysteresis=h, curvature_threshold=4.0, level2_tolerance=0.0)
             assert_bit_equal(self, v, fv)
             assert_bit_equal(self, t, ft)
         self.assertEqual(held[0.0], 0)
