@@ -139,10 +139,9 @@ void sort_by_morton(std::vector<T>& items, Coord coord) {
 /// A vertex lies on the lattice edge from point `p` to p + unit(axis): key = point key | axis << 60.
 inline std::uint64_t edge_key(glm::ivec3 p, int axis) { return pack(p) | (std::uint64_t(axis) << 60); }
 
-/// Value at the midpoint of a level-2 edge or face centre (paper §3.3.1, DESIGN §7). The same
-/// expressions serve transition continuity and the level-2 vertex rule, so both sides of a
+/// Value at the midpoint of an uncrossed level-2 edge (paper §3.3.1, DESIGN §7). The same
+/// expression serves transition continuity and the level-2 vertex rule, so both sides of a
 /// transition face compute bit-identical values.
 inline float edge_midpoint_value(float a, float b) { return 0.5f * (a + b); }
-inline float face_centre_value(float a, float b, float c, float d) { return 0.25f * ((a + b) + (c + d)); }
 
 }  // namespace trilevel::lattice

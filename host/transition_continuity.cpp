@@ -7,8 +7,7 @@
 #include "transition_continuity.hpp"
 
 #include <atomic>
-#include <cmath>
-#include <limits>
+#include <utility>
 
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
@@ -23,7 +22,7 @@ namespace {
 
 struct Scratch {
     std::vector<std::uint64_t> keys;
-    std::vector<glm::ivec3> points;  // local coordinates of the odd points to set
+    std::vector<glm::ivec3> points;  // local coordinates of the level-2 edge midpoints to set
     std::vector<float*> found;
     std::vector<float> level2;       // the cell's level-2 values, (cs/2+1)^3
 };
@@ -45,7 +44,11 @@ private:
         const int m = cs_ / 2 + 1;
         return s.level2[std::size_t(((p.z / 2) * m + p.y / 2) * m + p.x / 2)];
     }
-    float interpolated(const Scratch& s, glm::ivec3 p) const;
+    /// The values at the two ends of the level-2 edge whose midpoint is p (one odd coordinate).
+    std::pair<float, float> ends(const Scratch& s, glm::ivec3 p) const {
+        const glm::ivec3 e(p.x & 1, p.y & 1, p.z & 1);
+        return {even_value(s, p - e), even_value(s, p + e)};
+    }
 };
 
 // Midpoints of the level-2 edges of the closed face (axis, side), local coordinates: one of the
@@ -74,17 +77,6 @@ void CellFixer::add_edge(int axis, int sb, int sc, Scratch& s) const {
     }
 }
 
-// The midpoint p of a level-2 edge (one odd coordinate): the linear value of its ends (DESIGN §7)
-// where they have the same sign; NaN, meaning "keep the field value", where the edge is crossed.
-float CellFixer::interpolated(const Scratch& s, glm::ivec3 p) const {
-    glm::ivec3 e{0};
-    for (int a = 0; a < 3; ++a)
-        if (p[a] & 1) e[a] = 1;
-    const float va = even_value(s, p - e), vb = even_value(s, p + e);
-    if (mc::inside(va) != mc::inside(vb)) return std::numeric_limits<float>::quiet_NaN();
-    return lattice::edge_midpoint_value(va, vb);
-}
-
 void CellFixer::fix(const CoarseCell& cell, Scratch& s) const {
     s.points.clear();
     for (int axis = 0; axis < 3; ++axis) {
@@ -111,6 +103,11 @@ void CellFixer::fix(const CoarseCell& cell, Scratch& s) const {
         if (!s.found[i]) throw Error("transition continuity: level-2 lattice point missing from the fine point map");
         s.level2[i] = *s.found[i];
     }
+    // A crossed edge keeps the field's (true) midpoint value: both sides read it alike.
+    std::erase_if(s.points, [&](glm::ivec3 p) {
+        const auto [va, vb] = ends(s, p);
+        return mc::inside(va) != mc::inside(vb);
+    });
     const glm::ivec3 base = cell.coord * cs_;
     s.keys.clear();
     for (const glm::ivec3& p : s.points) s.keys.push_back(lattice::pack(base + p));
@@ -118,10 +115,9 @@ void CellFixer::fix(const CoarseCell& cell, Scratch& s) const {
     find_batch(field_, s.keys.data(), s.keys.size(), s.found.data());
     for (std::size_t i = 0; i < s.points.size(); ++i) {
         if (!s.found[i]) continue;
-        const float value = interpolated(s, s.points[i]);
-        if (std::isnan(value)) continue;  // a crossed edge keeps the field's (true) midpoint value
+        const auto [va, vb] = ends(s, s.points[i]);
         // Cells sharing the point store the same value: relaxed atomics keep it race-free.
-        std::atomic_ref<float>(*s.found[i]).store(value, std::memory_order_relaxed);
+        std::atomic_ref<float>(*s.found[i]).store(lattice::edge_midpoint_value(va, vb), std::memory_order_relaxed);
     }
 }
 

@@ -512,10 +512,9 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     Mesh mesh;
     if (!cells.empty()) {  // particles without surface (none can be: a safety net) give an empty mesh
         const float tolerance = g.forced_level == 0 ? p.level2_tolerance * r : 0.0f;  // 0: off
-        // The check's second opinion is asked where the curvature is not clearly flat.
-        std::vector<std::uint8_t> checked(cells.size(), 0);
-        for (std::size_t i = 0; i < cells.size() && i < sc.curvature.size() && tolerance > 0.0f; ++i)
-            checked[i] = sc.curvature[i] >= constants::kLevel2CheckCurvature;
+        std::vector<std::uint8_t> checked;  // the check's second opinion, where the curvature is not clearly flat
+        if (tolerance > 0.0f)
+            for (float k : sc.curvature) checked.push_back(k >= constants::kLevel2CheckCurvature);
         FinePointMap field = close_band(rt, points, cells, g.frame, bins, r, R, checked, tolerance, s);
         timer.restart();  // close_band recorded its own two entries
         rt.set_stage("edge_refinement");
