@@ -71,18 +71,6 @@ bool cell_fails(const FinePointMap& field, const CoarseCell& c, int cs, float to
 
 }  // namespace
 
-std::vector<std::uint64_t> level2_check_points(const std::vector<CoarseCell>& cells, const std::vector<std::uint8_t>& checked,
-                                               const LatticeFrame& frame) {
-    if (checked.size() != cells.size()) throw Error("level-2 check: one flag per cell expected");
-    std::vector<std::uint64_t> keys;
-    for (std::size_t i = 0; i < cells.size(); ++i)
-        if (cells[i].level == 2 && checked[i])
-            for_each_level2_cube(cells[i], frame.coarse_steps,
-                                 [&](glm::ivec3 lo) { keys.push_back(lattice::pack(lo + glm::ivec3(1))); });
-    std::sort(keys.begin(), keys.end());  // unique already: a centre lies inside its own cell
-    return keys;
-}
-
 std::vector<std::size_t> cells_failing_level2_check(const std::vector<CoarseCell>& cells,
                                                     const std::vector<std::uint8_t>& checked, const LatticeFrame& frame,
                                                     const FinePointMap& field, float tolerance) {

@@ -5,7 +5,8 @@
 // level-2 surface would stand off the true one near that point. Curvature from particle normals
 // misses thin sheets and ridges and fires on disordered particles on flat water; this check
 // measures the lattice error itself, at one extra point per level-2 cube (the cube centres are
-// level-3 points, so a promoted cell reuses them).
+// level-3 points, so a promoted cell reuses them). The centres of the checked cells are inserted
+// and evaluated with the cells' own points (refine_and_evaluate's cube_centres flags).
 #pragma once
 
 #include <cstdint>
@@ -15,12 +16,6 @@
 #include "fine_point_map.hpp"
 
 namespace trilevel {
-
-/// Lattice keys (lattice::pack) of the centres of the level-2 cubes of every level-2 cell in
-/// `cells` with `checked` set (same length as `cells`), sorted and unique. The centres lie inside
-/// their cell, so no two cells share one.
-std::vector<std::uint64_t> level2_check_points(const std::vector<CoarseCell>& cells, const std::vector<std::uint8_t>& checked,
-                                               const LatticeFrame& frame);
 
 /// Indices into `cells` (ascending) of the level-2 cells with `checked` set to make level 3:
 /// those with a cube that the surface crosses (its 8 corners and centre hold both signs) and whose

@@ -3,7 +3,17 @@
 // level 3 (125). A point shared by several cells is stored once; its value slot starts as NaN,
 // which marks it as not yet evaluated.
 
-// cells: x, y, z = coarse coordinates, w = level. One work-item per (cell, local point).
+// A cell's w: its level, plus CELL_CUBE_CENTRES where the level-2 check (host/level2_check.hpp)
+// needs the centres of its level-2 cubes, which the same passes then insert and evaluate.
+#define CELL_CUBE_CENTRES 4
+
+// Whether the cell whose int4 has this w holds the lattice point with `odd` odd coordinates (of
+// its local offset): level 3 every point, level 2 the even ones and, when asked, the cube centres.
+inline bool cell_has_point(int w, int odd) {
+    return (w & 3) != 2 || odd == 0 || ((w & CELL_CUBE_CENTRES) && odd == 3);
+}
+
+// cells: x, y, z = coarse coordinates, w = level (| CELL_CUBE_CENTRES). One work-item per (cell, local point).
 __kernel void refine_points(__global const int4* cells, uint cell_count, int coarse_steps,
                             volatile __global fine_key_t* keys, ulong capacity, volatile __global int* stats,
                             uint2 shift) {
@@ -14,7 +24,7 @@ __kernel void refine_points(__global const int4* cells, uint cell_count, int coa
     int4 c = cells[gid / per_cell];
     int l = (int)(gid % per_cell);
     int3 o = (int3)(l % side, (l / side) % side, l / (side * side));
-    if (c.w == 2 && ((o.x | o.y | o.z) & 1)) return;  // level 2 uses every second point
+    if (!cell_has_point(c.w, (o.x & 1) + (o.y & 1) + (o.z & 1))) return;
     int3 p = c.xyz * coarse_steps + o;
     fine_insert_counted(keys, capacity, p, shift, stats);
 }

@@ -163,11 +163,10 @@ inline uint near_candidates(float8 X, float8 Y, float8 Z, __local const float4* 
 }
 
 // Which pending points of its cell a work-group claims (ClaimPoints in src/device_stages.hpp).
-#define CLAIM_LEVEL 0              /* the points of the cell's level */
-#define CLAIM_EDGE_MIDPOINTS 1     /* one odd coordinate: midpoints of level-2 edges (stage 8b) */
-#define CLAIM_LEVEL_AND_CENTRES 2  /* and in level-2 cells the three-odd centres of their cubes (level-2 check) */
-#define CLAIM_INSERTED 3           /* inserts the points of the cell's level (stage 5) and takes those it created */
-#define CLAIM_LISTED 4             /* the slots the host listed for the work-group (stage 8b) */
+#define CLAIM_LEVEL 0           /* the points of the cell's level */
+#define CLAIM_EDGE_MIDPOINTS 1  /* one odd coordinate: midpoints of level-2 edges (stage 8b) */
+#define CLAIM_INSERTED 2        /* inserts the points of the cell's level (stage 5) and takes those it created */
+#define CLAIM_LISTED 3          /* the slots the host listed for the work-group (stage 8b) */
 
 __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, int claim,
                                  volatile __global fine_key_t* keys, ulong capacity,
@@ -208,9 +207,7 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
         if (fits) claimed[l] = NOT_CLAIMED;
         int3 o = (int3)(l % side, (l / side) % side, l / (side * side));
         const int odd = (o.x & 1) + (o.y & 1) + (o.z & 1);
-        const bool take = claim == CLAIM_EDGE_MIDPOINTS
-                              ? odd == 1
-                              : c.w != 2 || odd == 0 || (claim == CLAIM_LEVEL_AND_CENTRES && odd == 3);
+        const bool take = claim == CLAIM_EDGE_MIDPOINTS ? odd == 1 : cell_has_point(c.w, odd);
         if (!take) continue;
         const int3 point = c.xyz * coarse_steps + o;
         if (claim == CLAIM_INSERTED) {  // a point is evaluated by the work-group that created it

@@ -334,9 +334,13 @@ struct Listed {
 };
 
 /// Unique points a batch of cells adds, for sizing the table (interior points are shared by none).
-std::size_t estimate_points(const std::vector<CoarseCell>& cells, int coarse_steps) {
+std::size_t estimate_points(const std::vector<CoarseCell>& cells, const std::vector<std::uint8_t>& cube_centres,
+                            int coarse_steps) {
     std::size_t total = 0;
-    for (const auto& c : cells) {
+    for (std::size_t i = 0; i < cells.size(); ++i) {
+        const CoarseCell& c = cells[i];
+        const std::size_t cubes = std::size_t(coarse_steps / 2);
+        if (c.level == 2 && !cube_centres.empty() && cube_centres[i]) total += cubes * cubes * cubes;
         std::size_t side = std::size_t(coarse_steps / stride(c.level));
         // A cell owns about side^3 points (neighbours share the rest), plus some on faces without a
         // neighbour. Underestimates only cost a rehash (the table grows past FinePoints::kMaxLoad).
@@ -404,13 +408,20 @@ bool grew_after_insert(OpenCLRuntime& rt, FinePoints& p) {
     return true;
 }
 
-/// Cells as int4 (x, y, z, level) on the device.
+/// Cells as int4 (x, y, z, level) on the device; level-2 cells flagged in `cube_centres` (empty or
+/// one flag per cell) carry CELL_CUBE_CENTRES (refine_points.cl) in w.
 /// `in_morton_order`: the cells in Morton order of their coordinates instead of the given order,
 /// where nothing but the work-groups' memory locality depends on it (neighbouring cells then
 /// run close in time, and their gathers and table lines are still in cache).
-DeviceBuffer cell_buffer(OpenCLRuntime& rt, const std::vector<CoarseCell>& cells, bool in_morton_order = false) {
+DeviceBuffer cell_buffer(OpenCLRuntime& rt, const std::vector<CoarseCell>& cells,
+                         const std::vector<std::uint8_t>& cube_centres = {}, bool in_morton_order = false) {
+    constexpr cl_int kCubeCentres = 4;  // CELL_CUBE_CENTRES
     std::vector<cl_int4> data;
-    for (const auto& c : cells) data.push_back({{c.coord.x, c.coord.y, c.coord.z, c.level}});
+    for (std::size_t i = 0; i < cells.size(); ++i) {
+        const CoarseCell& c = cells[i];
+        const bool centres = c.level == 2 && !cube_centres.empty() && cube_centres[i];
+        data.push_back({{c.coord.x, c.coord.y, c.coord.z, c.level | (centres ? kCubeCentres : 0)}});
+    }
     if (in_morton_order) lattice::sort_by_morton(data, [](const cl_int4& c) { return glm::ivec3(c.s[0], c.s[1], c.s[2]); });
     return upload(rt, data, "cell list");
 }
@@ -460,29 +471,32 @@ bool evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf
 }  // namespace
 
 void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<CoarseCell>& cells,
-                         const LatticeFrame& frame, const BinnedParticles& b, float r, float R, ClaimPoints claim) {
+                         const LatticeFrame& frame, const BinnedParticles& b, float r, float R,
+                         const std::vector<std::uint8_t>& cube_centres) {
     if (cells.empty()) return;
-    const DeviceBuffer cell_buf = cell_buffer(rt, cells, true);
+    if (!cube_centres.empty() && cube_centres.size() != cells.size())
+        throw Error("internal: one cube-centre flag per refined cell expected");
+    const DeviceBuffer cell_buf = cell_buffer(rt, cells, cube_centres, true);
     const std::size_t side = std::size_t(frame.coarse_steps + 1);
     const std::size_t work = cells.size() * side * side * side;
     if (work > std::numeric_limits<cl_uint>::max()) throw Error("too many fine points in one refinement pass");
 
-    reserve_fine_points(rt, p, cells, frame, 0);  // takes the frame's key layout
-    if (claim == ClaimPoints::Level) {  // one pass: each cell inserts its points and evaluates those it created
-        if (evaluate_cells(rt, p, cell_buf, cells.size(), ClaimPoints::Inserted, frame, b, r, R)) {
-            ensure_fine_room(rt, p, p.inserted);
-            rt.finish();
-            return;
-        }
-        grow_fine_points(rt, p, p.hash.capacity * 2);  // full (the estimate fell short): the passes apart
+    adopt_layout(p, frame, cells);
+    ensure_fine_room(rt, p, p.inserted + estimate_points(cells, cube_centres, frame.coarse_steps));
+    // One pass: each cell inserts its points and evaluates those it created.
+    if (evaluate_cells(rt, p, cell_buf, cells.size(), ClaimPoints::Inserted, frame, b, r, R)) {
+        ensure_fine_room(rt, p, p.inserted);
+        rt.finish();
+        return;
     }
+    grow_fine_points(rt, p, p.hash.capacity * 2);  // full (the estimate fell short): the passes apart
     for (;;) {  // stage 5; inserting is idempotent, so after growth the pass simply runs again
         set_args(fine_kernel(rt, p, "refine_points"), cell_buf, cl_uint(cells.size()), cl_int(frame.coarse_steps),
                  p.hash.keys, cl_ulong(p.hash.capacity), p.hash.stats, key_shifts(p.layout));
         rt.run("refine_points", work);
         if (!grew_after_insert(rt, p)) break;
     }
-    evaluate_cells(rt, p, cell_buf, cells.size(), claim, frame, b, r, R);
+    evaluate_cells(rt, p, cell_buf, cells.size(), ClaimPoints::Level, frame, b, r, R);
     rt.finish();
 }
 
@@ -503,7 +517,8 @@ void evaluate_pending(OpenCLRuntime& rt, FinePoints& p, const LatticeFrame& fram
 
 namespace {
 
-/// insert_points, returning the slot (cl_long) of each key in the final table.
+/// Inserts the given lattice point keys (growing the table as needed), pending evaluation, and
+/// returns the slot (cl_long) of each key in the final table.
 DeviceBuffer insert_keys(OpenCLRuntime& rt, FinePoints& p, const std::vector<std::uint64_t>& keys) {
     for (std::uint64_t k : keys)
         if (!p.layout.holds(lattice::unpack(k)))
@@ -522,16 +537,6 @@ DeviceBuffer insert_keys(OpenCLRuntime& rt, FinePoints& p, const std::vector<std
 }
 
 }  // namespace
-
-void reserve_fine_points(OpenCLRuntime& rt, FinePoints& p, const std::vector<CoarseCell>& cells,
-                         const LatticeFrame& frame, std::size_t extra) {
-    adopt_layout(p, frame, cells);
-    ensure_fine_room(rt, p, p.inserted + extra + estimate_points(cells, frame.coarse_steps));
-}
-
-void insert_points(OpenCLRuntime& rt, FinePoints& p, const std::vector<std::uint64_t>& keys) {
-    if (!keys.empty()) insert_keys(rt, p, keys);
-}
 
 void insert_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<std::uint64_t>& keys,
                          const std::vector<std::uint32_t>& first, const std::vector<CoarseCell>& holders,

@@ -85,30 +85,24 @@ struct FinePoints {
 };
 /// Which pending points of its cell a work-group claims (scalar_field.cl, CLAIM_*).
 enum class ClaimPoints {
-    Level = 0,                ///< the points of the cell's level
-    EdgeMidpoints = 1,        ///< one odd coordinate: midpoints of level-2 edges (stage 8b)
-    LevelAndCubeCentres = 2,  ///< those of its level and, in a level-2 cell, the centres of its cubes
-                              ///< (three odd coordinates: the level-2 check)
-    Inserted = 3,             ///< inserts the points of its level and takes those it created
-    Listed = 4,               ///< takes the points the host listed for it (insert_and_evaluate)
+    Level = 0,          ///< the points of the cell's level (and its cube centres where flagged)
+    EdgeMidpoints = 1,  ///< one odd coordinate: midpoints of level-2 edges (stage 8b)
+    Inserted = 2,       ///< inserts the points of its level and takes those it created
+    Listed = 3,         ///< takes the points the host listed for it (insert_and_evaluate)
 };
-/// Inserts the points of `cells` (growing the table as needed), then evaluates the new ones that
-/// `claim` names (points inserted before, e.g. by insert_points, included).
+/// Inserts the points of `cells` (growing the table as needed) and evaluates the new ones, in one
+/// pass where the table has room. `cube_centres`, empty or one flag per cell: the level-2 cells
+/// flagged get the centres of their level-2 cubes too (the level-2 check's points), in the same
+/// pass, so that the check costs no insert or lookup pass of its own.
 void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vector<CoarseCell>& cells,
                          const LatticeFrame& frame, const BinnedParticles& bins, float r, float R,
-                         ClaimPoints claim = ClaimPoints::Level);
+                         const std::vector<std::uint8_t>& cube_centres = {});
 /// Evaluates every point inserted but not evaluated yet.
 void evaluate_pending(OpenCLRuntime& rt, FinePoints& points, const LatticeFrame& frame, const BinnedParticles& bins,
                       float r, float R);
-/// Grows the table, if it must, so that `extra` more points and those refining `cells` will add
-/// fit (to FinePoints::kTargetLoad when they would pass FinePoints::kMaxLoad): one table from the start where points are inserted before a pass (the level-2
-/// check's cube centres), instead of a table for them rehashed into a larger one.
-void reserve_fine_points(OpenCLRuntime& rt, FinePoints& points, const std::vector<CoarseCell>& cells,
-                         const LatticeFrame& frame, std::size_t extra);
-/// Inserts the given lattice point keys (growing the table as needed), pending evaluation.
-void insert_points(OpenCLRuntime& rt, FinePoints& points, const std::vector<std::uint64_t>& keys);
-/// insert_points, then evaluates them: holder h's work-group evaluates keys[first[h] ..
-/// first[h + 1]), which must be points of that cell, each key listed once.
+/// Inserts the given lattice point keys (growing the table as needed), then evaluates them:
+/// holder h's work-group evaluates keys[first[h] .. first[h + 1]), which must be points of that
+/// cell, each key listed once.
 void insert_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vector<std::uint64_t>& keys,
                          const std::vector<std::uint32_t>& first, const std::vector<CoarseCell>& holders,
                          const LatticeFrame& frame, const BinnedParticles& bins, float r, float R);

@@ -232,18 +232,13 @@ FinePointMap close_band(OpenCLRuntime& rt, FinePoints& points, std::vector<Coars
                         const LatticeFrame& frame, const BinnedParticles& bins, float r, float R,
                         const std::vector<std::uint8_t>& checked, float level2_tolerance, Stats& s) {
     std::vector<CoarseCell> fresh = cells;
+    const std::vector<std::uint8_t> no_centres;
     double t_field = 0, t_closure = 0;
     for (bool first = true;; first = false) {
         auto t0 = Clock::now();
         rt.set_stage("scalar_field");
         const bool check = first && level2_tolerance > 0.0f;  // the cube centres join the first pass
-        if (check) {
-            const std::vector<std::uint64_t> centres = level2_check_points(cells, checked, frame);
-            reserve_fine_points(rt, points, fresh, frame, centres.size());
-            insert_points(rt, points, centres);
-        }
-        refine_and_evaluate(rt, points, fresh, frame, bins, r, R,
-                            check ? ClaimPoints::LevelAndCubeCentres : ClaimPoints::Level);
+        refine_and_evaluate(rt, points, fresh, frame, bins, r, R, check ? checked : no_centres);
         FinePointMap field = map_fine_points(rt, points);
         if (check)
             s.level2_check_cells =

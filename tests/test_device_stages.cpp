@@ -392,6 +392,67 @@ TEST_CASE("refinement falls back to separate insert and evaluate passes when the
     CHECK(far < pts.size());
 }
 
+TEST_CASE("flagged level-2 cells get their cube centres in the same pass, others none", "[device][scalar_field]") {
+    auto& rt = runtime();
+    const float r = 0.025f, R = 4 * r;
+    auto [x, b, c, order] = classify(r, R, 5);
+    LatticeFrame frame;
+    frame.step = r;
+    frame.coarse_steps = 4;
+    // The fallback's 40 level-2 cells, every other one flagged, plus a flagged level-3 cell (its
+    // centres are its own points already). `roomy`: first a 6x6x2 block of level-3 cells away
+    // from them (5625 points) leaves the table room for them, so the one fused pass takes the
+    // centres; else the table fills up and the separate insert and claim passes must take them.
+    const bool roomy = GENERATE(true, false);
+    std::vector<CoarseCell> cells;
+    for (int z = 3; z <= 5; z += 2)
+        for (int y = 3; y <= 9; y += 2)
+            for (int xx = 1; xx <= 9; xx += 2) cells.push_back({glm::ivec3(xx, y, z), 2});
+    cells.push_back({glm::ivec3(11, 11, 11), 3});
+    std::vector<std::uint8_t> flags(cells.size(), 0);
+    for (std::size_t i = 0; i < cells.size(); i += 2) flags[i] = 1;
+    flags.back() = 1;
+    FinePoints points;
+    std::size_t before = 0;
+    if (roomy) {
+        std::vector<CoarseCell> block;
+        for (int z = 20; z < 22; ++z)
+            for (int y = 20; y < 26; ++y)
+                for (int xx = 20; xx < 26; ++xx) block.push_back({glm::ivec3(xx, y, z), 3});
+        refine_and_evaluate(rt, points, block, frame, b, r, R);
+        before = points.inserted;
+        REQUIRE(before == 25 * 25 * 9);
+    }
+    rt.take_kernel_times();
+    refine_and_evaluate(rt, points, cells, frame, b, r, R, flags);
+    INFO((roomy ? "roomy table" : "table fills up"));
+    CHECK(rt.take_kernel_times().count("refine_points") == (roomy ? 0u : 1u));  // the passes apart
+    CHECK(points.inserted == before + 40 * 27 + 20 * 8 + 125);
+    CHECK_THROWS_WITH(refine_and_evaluate(rt, points, cells, frame, b, r, R, std::vector<std::uint8_t>(3, 1)),
+                      Catch::Matchers::Contains("one cube-centre flag per refined cell"));
+    const FinePointMap map = read_fine_points(rt, points);
+    std::vector<glm::vec3> pts;
+    std::vector<float> dev;
+    for (std::size_t i = 0; i + 1 < cells.size(); ++i)
+        for (int k = 1; k < 4; k += 2)
+            for (int j = 1; j < 4; j += 2)
+                for (int l = 1; l < 4; l += 2) {
+                    const glm::ivec3 p = cells[i].coord * 4 + glm::ivec3(l, j, k);
+                    const float* v = map.find(lattice::pack(p));
+                    REQUIRE((v != nullptr) == (flags[i] != 0));
+                    if (!v) continue;
+                    pts.push_back(glm::vec3(p) * r);
+                    dev.push_back(*v);
+                }
+    REQUIRE(pts.size() == 20 * 8);
+    const auto ref = reference::scalar_field(pts, x, r, R);
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+        REQUIRE(std::isfinite(dev[i]));
+        if (ref[i] < 2 * r) CHECK(std::fabs(dev[i] - ref[i]) < 1e-3f * r);  // rim points: see above
+        CHECK((dev[i] > 0) == (ref[i] > 0));
+    }
+}
+
 TEST_CASE("32-bit and 64-bit fine-point keys hold the same points with the same value bits", "[device][scalar_field][hash]") {
     auto& rt = runtime();
     const float r = 0.025f, R = 4 * r;
@@ -407,16 +468,13 @@ TEST_CASE("32-bit and 64-bit fine-point keys hold the same points with the same 
         if (narrow) frame.keys = lattice::key_layout_for(glm::ivec3(200));
         REQUIRE(frame.keys.wide == !narrow);
         FinePoints points;
-        // Half the cells, then extra points (the level-2 check's centres) and the rest: the table grows
-        // and rehashes on the way.
+        // Half the cells, then the rest as level-2 cells with their cube centres (the level-2
+        // check's points): the table grows and rehashes on the way.
         const std::vector<CoarseCell> first(sc.cells.begin(), sc.cells.begin() + std::ptrdiff_t(sc.cells.size() / 2));
-        const std::vector<CoarseCell> rest(sc.cells.begin() + std::ptrdiff_t(sc.cells.size() / 2), sc.cells.end());
+        std::vector<CoarseCell> rest(sc.cells.begin() + std::ptrdiff_t(sc.cells.size() / 2), sc.cells.end());
+        for (auto& cell : rest) cell.level = 2;
         refine_and_evaluate(rt, points, first, frame, b, r, R);
-        std::vector<std::uint64_t> centres;
-        for (const auto& cell : rest) centres.push_back(lattice::pack(cell.coord * 4 + glm::ivec3(1, 1, 1)));
-        insert_points(rt, points, centres);
-        refine_and_evaluate(rt, points, rest, frame, b, r, R);
-        evaluate_pending(rt, points, frame, b, r, R);
+        refine_and_evaluate(rt, points, rest, frame, b, r, R, std::vector<std::uint8_t>(rest.size(), 1));
         maps.push_back(read_fine_points(rt, points));
         inserted.push_back(points.inserted);
     }

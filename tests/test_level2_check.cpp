@@ -30,29 +30,20 @@ std::vector<CoarseCell> row_cells() {
 /// Every cell checked.
 std::vector<std::uint8_t> all(const std::vector<CoarseCell>& cells) { return std::vector<std::uint8_t>(cells.size(), 1); }
 
-/// The field of `cells` from f, with the level-2 cube centres added.
+/// The field of `cells` from f, with the centres of the level-2 cubes (odd coordinates) added.
 FinePointMap field_with_centres(const std::vector<CoarseCell>& cells, const std::function<float(glm::ivec3)>& f) {
     FinePointMap map = test::make_field(cells, kFrame, f);
-    for (std::uint64_t key : level2_check_points(cells, all(cells), kFrame)) map.insert(key, f(lattice::unpack(key)));
+    for (const CoarseCell& c : cells)
+        for (int z = 1; z < 4 && c.level == 2; z += 2)
+            for (int y = 1; y < 4; y += 2)
+                for (int x = 1; x < 4; x += 2) {
+                    const glm::ivec3 p = c.coord * 4 + glm::ivec3(x, y, z);
+                    map.insert(lattice::pack(p), f(p));
+                }
     return map;
 }
 
 }  // namespace
-
-TEST_CASE("level-2 check: one centre per level-2 cube, inside its cell", "[mesh]") {
-    const auto cells = row_cells();
-    const auto keys = level2_check_points(cells, all(cells), kFrame);
-    CHECK(keys.size() == 6 * 8);  // six level-2 cells of 2x2x2 cubes; the level-3 cell has none
-    std::vector<std::uint8_t> some = all(cells);
-    some[0] = some[6] = 0;
-    CHECK(level2_check_points(cells, some, kFrame).size() == 4 * 8);  // unchecked cells have none
-    CHECK_THROWS_AS(level2_check_points(cells, std::vector<std::uint8_t>(3, 1), kFrame), Error);
-    CHECK(std::is_sorted(keys.begin(), keys.end()));
-    for (std::uint64_t k : keys) {
-        const glm::ivec3 p = lattice::unpack(k);
-        CHECK((p.x % 2 == 1 && p.y % 2 == 1 && p.z % 2 == 1));
-    }
-}
 
 TEST_CASE("level-2 check: a linear field passes, a bump promotes its cell alone, unchecked cells never", "[mesh]") {
     const auto cells = row_cells();
