@@ -126,8 +126,9 @@ __kernel void scalar_field(__global const uint* pending, uint count, __global co
 
 // Candidate particles of one coarse cell gathered into local memory (paper Fig. 3: the particles
 // that influence the cell's points lie within R of the cell box). A point shared by several cells
-// is evaluated once: in the main pass (CLAIM_INSERTED) by the work-group whose insert created it,
-// which spares the separate insert pass and a second table lookup per point; in the other passes
+// is evaluated once: in the passes that insert (CLAIM_INSERTED, the main pass, and CLAIM_CROSSED,
+// edge refinement) by the work-group whose insert created it, which spares a separate insert
+// pass and a second table lookup per point; in the other passes
 // by the work-group that claims it first (its NaN "pending" value becomes CLAIMED). Each
 // work-item then evaluates LANES claimed points at once, one per vector lane: every lane adds its
 // neighbours in candidate order (bins in z, y, x order, each in index order), so a point's value
@@ -166,7 +167,42 @@ inline uint near_candidates(float8 X, float8 Y, float8 Z, __local const float4* 
 #define CLAIM_LEVEL 0           /* the points of the cell's level */
 #define CLAIM_EDGE_MIDPOINTS 1  /* one odd coordinate: midpoints of level-2 edges (stage 8b) */
 #define CLAIM_INSERTED 2        /* inserts the points of the cell's level (stage 5) and takes those it created */
-#define CLAIM_LISTED 3          /* the slots the host listed for the work-group (stage 8b) */
+#define CLAIM_CROSSED 3         /* inserts the midpoints of the level-2 cell's crossed edges (stage 8b), takes those it created */
+
+// Stage 8b (host/edge_refinement.hpp) for one level-2 cell: the midpoints of its level-2 edges
+// whose ends the surface separates (phi < 0 at one end only), inserted; the slots of those this
+// work-group created go into claimed[0 .. *claimed_count), in no particular order (a point's
+// value does not depend on its lane or partners). `corner` holds the (cs/2 + 1)^3 level-2 values
+// meanwhile. A midpoint already in the table (a level-3 cell's point) is not created, so it keeps
+// its value; each crossed edge is created once, by whichever of its up to four cells gets there
+// first, and the value does not depend on the cell that evaluates it.
+inline void claim_crossed_midpoints(int3 base, int cs, volatile __global fine_key_t* keys, ulong capacity,
+                                    volatile __global uint* value_bits, uint2 shift, __local float* corner,
+                                    __local uint* claimed, volatile __local uint* claimed_count,
+                                    volatile __global int* table_stats) {
+    const uint lid = get_local_id(0), lsize = get_local_size(0);
+    const int m = cs / 2 + 1, mm = m * m;  // level-2 points per axis
+    for (int l = (int)lid; l < mm * m; l += (int)lsize) {
+        const int3 o = (int3)(l % m, (l / m) % m, l / mm) * 2;
+        const long slot = fine_find((const __global fine_key_t*)keys, capacity, base + o, shift);
+        corner[l] = slot < 0 ? as_float(PENDING_BITS) : as_float(value_bits[slot]);  // NaN: no crossing
+    }
+    barrier(CLK_LOCAL_MEM_FENCE);
+    for (int l = (int)lid; l < mm * m; l += (int)lsize) {  // each corner and its edges towards +x, +y, +z
+        const int3 o = (int3)(l % m, (l / m) % m, l / mm);
+        const float va = corner[l];
+        for (int axis = 0; axis < 3; ++axis) {
+            const int3 d = (int3)(axis == 0, axis == 1, axis == 2);
+            if ((axis == 0 ? o.x : axis == 1 ? o.y : o.z) == m - 1) continue;
+            const float vb = corner[l + (axis == 0 ? 1 : axis == 1 ? m : mm)];
+            if (isnan(va) || isnan(vb) || (va < 0.0f) == (vb < 0.0f)) continue;
+            int created;
+            const long slot = fine_insert(keys, capacity, base + 2 * o + d, shift, &created);
+            if (slot < 0) atomic_or(&table_stats[0], 1);  // full: the host grows it and runs the pass again
+            if (created) claimed[atomic_inc(claimed_count)] = (uint)slot;
+        }
+    }
+}
 
 __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, int claim,
                                  volatile __global fine_key_t* keys, ulong capacity,
@@ -175,11 +211,20 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
                                  __global const uint2* range, float r, float R, volatile __global int* overflow,
                                  __local float4* cand, __local uint* bin_first, __local uint* bin_slot,
                                  __local uint* count, __local uint* claimed, __local uint* claimed_count,
-                                 int cells_are_bins, volatile __global int* table_stats,
-                                 __global const uint* listed_first, __global const long* listed_slots, uint2 shift) {
+                                 int cells_are_bins, volatile __global int* table_stats, uint2 shift) {
     const int4 c = cells[get_group_id(0)];
     const uint lid = get_local_id(0), lsize = get_local_size(0);
-    if (claim == CLAIM_LISTED && listed_first[get_group_id(0)] == listed_first[get_group_id(0) + 1]) return;
+    if (claim == CLAIM_CROSSED) {  // first the midpoints: most cells create none and gather nothing
+        if ((c.w & 3) != 2) return;
+        if (lid == 0) *claimed_count = 0;
+        barrier(CLK_LOCAL_MEM_FENCE);
+        // The corners in the upper half of `claimed`, the created midpoints (at most 3 (cs/2) (cs/2 + 1)^2,
+        // 300 for cs <= 8: the host checks) in its lower half.
+        claim_crossed_midpoints(c.xyz * coarse_steps, coarse_steps, keys, capacity, value_bits, shift,
+                                (__local float*)(claimed + MAX_CELL_POINTS / 2), claimed, claimed_count, table_stats);
+        barrier(CLK_LOCAL_MEM_FENCE);
+        if (*claimed_count == 0) return;
+    }
     // With the default kernel radius the coarse cells are the particle bins (edge R = 4r, one
     // origin): the particles inside the cut support of the cell's points are in the 27 bins around
     // it (SUPPORT_CUT). The float box below lands on bin faces there and took 4 or 5 bins per axis,
@@ -193,17 +238,14 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
     const int side = coarse_steps + 1;
     const int points = side * side * side;
     const bool fits = n_cand <= MAX_CANDIDATES && points <= MAX_CELL_POINTS;
-    if (!fits && claim != CLAIM_INSERTED) {
+    const bool creates = claim == CLAIM_INSERTED || claim == CLAIM_CROSSED;  // the points this group created
+    if (!fits && !creates) {
         if (lid == 0) atomic_or(overflow, 1);
         return;
     }
-    if (lid == 0) *claimed_count = 0;  // CLAIM_INSERTED: first the count of points created
+    if (lid == 0 && claim != CLAIM_CROSSED) *claimed_count = 0;  // CLAIM_INSERTED: first the count of points created
     barrier(CLK_LOCAL_MEM_FENCE);
-    for (int l = (int)lid; l < points && claim == CLAIM_LISTED; l += (int)lsize) {  // no lookups, no claims
-        const uint k = listed_first[get_group_id(0)] + (uint)l;
-        claimed[l] = k < listed_first[get_group_id(0) + 1] ? (uint)listed_slots[k] : NOT_CLAIMED;
-    }
-    for (int l = (int)lid; l < points && claim != CLAIM_LISTED; l += (int)lsize) {  // claim the cell's pending points
+    for (int l = (int)lid; l < points && claim != CLAIM_CROSSED; l += (int)lsize) {  // claim the cell's pending points
         if (fits) claimed[l] = NOT_CLAIMED;
         int3 o = (int3)(l % side, (l / side) % side, l / (side * side));
         const int odd = (o.x & 1) + (o.y & 1) + (o.z & 1);
@@ -225,12 +267,12 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
         claimed[l] = (uint)slot;
     }
     barrier(CLK_LOCAL_MEM_FENCE);
-    if (lid == 0 && claim == CLAIM_INSERTED) atomic_add(&table_stats[1], (int)*claimed_count);  // once per group
+    if (lid == 0 && creates) atomic_add(&table_stats[1], (int)*claimed_count);  // once per group
     if (!fits) {  // its created points stay pending for the claiming pass the host runs next
         if (lid == 0) atomic_or(overflow, 1);
         return;
     }
-    if (lid == 0) {  // in lattice order, so that eight consecutive points lie close together
+    if (lid == 0 && claim != CLAIM_CROSSED) {  // in lattice order, so that eight consecutive points lie close together
         uint n = 0;
         for (int l = 0; l < points; ++l)
             if (claimed[l] != NOT_CLAIMED) claimed[n++] = claimed[l];

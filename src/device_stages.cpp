@@ -327,12 +327,6 @@ SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& b, Particle
 
 namespace {
 
-/// The points each work-group of a ClaimPoints::Listed pass evaluates.
-struct Listed {
-    const cl::Buffer& first;  ///< uint per group and one more: group g takes slots[first[g] .. first[g + 1])
-    const cl::Buffer& slots;  ///< long per point: its slot in the table
-};
-
 /// Unique points a batch of cells adds, for sizing the table (interior points are shared by none).
 std::size_t estimate_points(const std::vector<CoarseCell>& cells, const std::vector<std::uint8_t>& cube_centres,
                             int coarse_steps) {
@@ -426,14 +420,16 @@ DeviceBuffer cell_buffer(OpenCLRuntime& rt, const std::vector<CoarseCell>& cells
     return upload(rt, data, "cell list");
 }
 
+void claim_leftovers(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf, std::size_t cell_count,
+                     ClaimPoints claim, const LatticeFrame& frame, const BinnedParticles& b, float r, float R);
+
 /// Stage 6 over the pending points of `cell_count` cells, one work-group per cell with candidates
 /// gathered in local memory; cells whose candidates do not fit leave their points to the per-point
 /// kernel. `claim`: which pending points of its cell a work-group takes (scalar_field.cl, CLAIM_*).
-/// ClaimPoints::Inserted inserts the cells' points too (stage 5 and 6 in one pass) and returns
-/// false when the table filled up: the host then grows it and runs the two stages apart.
+/// ClaimPoints::Inserted and ::Crossed insert the points they evaluate (stage 5 and 6 in one pass;
+/// stage 8b) and return false when the table filled up: the host then grows it and goes on.
 bool evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf, std::size_t cell_count,
-                    ClaimPoints claim, const LatticeFrame& frame, const BinnedParticles& b, float r, float R,
-                    const Listed* listed = nullptr) {
+                    ClaimPoints claim, const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
     DeviceBuffer overflow = rt.buffer(sizeof(cl_int), "scalar field overflow flag");
     rt.queue().enqueueFillBuffer(overflow, cl_int{0}, 0, sizeof(cl_int));
     constexpr std::size_t kMaxCellPoints = 729;  // as in scalar_field.cl
@@ -446,26 +442,29 @@ bool evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf
     k.setArg(20, cl::Local(sizeof(cl_uint)));
     k.setArg(21, cl_int(float(frame.coarse_steps) * frame.step == b.cell));  // coarse cells are the bins
     k.setArg(22, p.hash.stats);
-    k.setArg(23, listed ? listed->first : cell_buf);  // any buffer where no list is read
-    k.setArg(24, listed ? listed->slots : cell_buf);
-    k.setArg(25, key_shifts(p.layout));
+    k.setArg(23, key_shifts(p.layout));
     rt.run_groups("scalar_field_cells", cell_count, kCellGroup);
     const bool overflow_seen = read_buffer<cl_int>(rt, overflow, 1)[0] != 0;
-    if (claim == ClaimPoints::Inserted) {
+    const bool creates = claim == ClaimPoints::Inserted || claim == ClaimPoints::Crossed;
+    if (creates) {
         const HashCounters c = read_counters(rt, p.hash);
         p.inserted = c.inserted;
         if (c.overflow) return false;
     }
-    if (!overflow_seen) return true;
-    // Points left pending by a cell whose candidates did not fit: in the passes that assign points
-    // (created or listed) the other cells holding them claim them, as the claiming passes do; what
-    // no cell can take goes to the per-point kernel. So no point's kernel depends on timing.
-    if (claim == ClaimPoints::Inserted || claim == ClaimPoints::Listed)
+    if (overflow_seen) claim_leftovers(rt, p, cell_buf, cell_count, claim, frame, b, r, R);
+    return true;
+}
+
+/// Points left pending by a cell whose candidates did not fit: in the passes that create points
+/// the other cells holding them claim them, as the claiming passes do; what no cell can take goes
+/// to the per-point kernel. So no point's kernel depends on timing.
+void claim_leftovers(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf, std::size_t cell_count,
+                     ClaimPoints claim, const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
+    if (claim == ClaimPoints::Inserted || claim == ClaimPoints::Crossed)
         evaluate_cells(rt, p, cell_buf, cell_count,
                        claim == ClaimPoints::Inserted ? ClaimPoints::Level : ClaimPoints::EdgeMidpoints, frame, b, r, R);
     else
         evaluate_pending(rt, p, frame, b, r, R);
-    return true;
 }
 
 }  // namespace
@@ -515,39 +514,27 @@ void evaluate_pending(OpenCLRuntime& rt, FinePoints& p, const LatticeFrame& fram
     rt.finish();
 }
 
-namespace {
-
-/// Inserts the given lattice point keys (growing the table as needed), pending evaluation, and
-/// returns the slot (cl_long) of each key in the final table.
-DeviceBuffer insert_keys(OpenCLRuntime& rt, FinePoints& p, const std::vector<std::uint64_t>& keys) {
-    for (std::uint64_t k : keys)
-        if (!p.layout.holds(lattice::unpack(k)))
-            throw Error("internal: an extra fine point lies outside the fine-point key layout");
-    const cl_uint n = cl_uint(keys.size());
-    const DeviceBuffer in = upload(rt, keys, "extra fine points");
-    DeviceBuffer slots = rt.buffer(n * sizeof(cl_long), "extra fine point slots");
-    ensure_fine_room(rt, p, p.inserted + n);
-    for (;;) {  // after growth every key goes in again: the slots are those of the final table
-        set_args(fine_kernel(rt, p, "fine_insert_keys"), in, n, p.hash.keys, cl_ulong(p.hash.capacity),
-                 key_shifts(p.layout), slots, p.hash.stats);
-        rt.run("fine_insert_keys", n);
-        if (!grew_after_insert(rt, p)) break;
+void evaluate_crossed_midpoints(OpenCLRuntime& rt, FinePoints& p, const std::vector<CoarseCell>& cells,
+                                const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
+    std::vector<CoarseCell> level2;
+    for (const CoarseCell& c : cells)
+        if (c.level == 2) level2.push_back(c);
+    if (level2.empty()) return;
+    if (frame.coarse_steps > 8)  // claim_crossed_midpoints keeps a cell's corners and midpoints in local memory
+        throw Error("internal: edge refinement takes coarse cells of at most 8 lattice steps");
+    adopt_layout(p, frame, level2);
+    ensure_fine_room(rt, p, p.inserted + 2 * level2.size());  // about 2 a level-2 cell (estimate_points)
+    const DeviceBuffer cell_buf = cell_buffer(rt, level2, {}, true);
+    bool grew = false;
+    while (!evaluate_cells(rt, p, cell_buf, level2.size(), ClaimPoints::Crossed, frame, b, r, R)) {
+        grow_fine_points(rt, p, p.hash.capacity * 2);  // full: inserting is idempotent, so the pass runs again
+        grew = true;
     }
-    return slots;
-}
-
-}  // namespace
-
-void insert_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<std::uint64_t>& keys,
-                         const std::vector<std::uint32_t>& first, const std::vector<CoarseCell>& holders,
-                         const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
-    if (keys.empty()) return;
-    adopt_layout(p, frame, holders);
-    const DeviceBuffer slots = insert_keys(rt, p, keys);
-    const DeviceBuffer lists = upload(rt, first, "listed point ranges");
-    const DeviceBuffer cell_buf = cell_buffer(rt, holders);
-    Listed listed{lists, slots};
-    evaluate_cells(rt, p, cell_buf, holders.size(), ClaimPoints::Listed, frame, b, r, R, &listed);
+    ensure_fine_room(rt, p, p.inserted);
+    // A point created in a pass that ran out of room, by a cell whose candidates did not fit, is
+    // not created again: the claiming pass takes it (it raises no overflow flag the second time).
+    if (grew) claim_leftovers(rt, p, cell_buf, level2.size(), ClaimPoints::Crossed, frame, b, r, R);
+    rt.finish();
 }
 
 FinePointMap map_fine_points(OpenCLRuntime& rt, FinePoints& p) {

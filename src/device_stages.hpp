@@ -88,7 +88,7 @@ enum class ClaimPoints {
     Level = 0,          ///< the points of the cell's level (and its cube centres where flagged)
     EdgeMidpoints = 1,  ///< one odd coordinate: midpoints of level-2 edges (stage 8b)
     Inserted = 2,       ///< inserts the points of its level and takes those it created
-    Listed = 3,         ///< takes the points the host listed for it (insert_and_evaluate)
+    Crossed = 3,        ///< inserts the midpoints of a level-2 cell's crossed edges, takes those it created
 };
 /// Inserts the points of `cells` (growing the table as needed) and evaluates the new ones, in one
 /// pass where the table has room. `cube_centres`, empty or one flag per cell: the level-2 cells
@@ -100,12 +100,13 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vecto
 /// Evaluates every point inserted but not evaluated yet.
 void evaluate_pending(OpenCLRuntime& rt, FinePoints& points, const LatticeFrame& frame, const BinnedParticles& bins,
                       float r, float R);
-/// Inserts the given lattice point keys (growing the table as needed), then evaluates them:
-/// holder h's work-group evaluates keys[first[h] .. first[h + 1]), which must be points of that
-/// cell, each key listed once.
-void insert_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vector<std::uint64_t>& keys,
-                         const std::vector<std::uint32_t>& first, const std::vector<CoarseCell>& holders,
-                         const LatticeFrame& frame, const BinnedParticles& bins, float r, float R);
+/// Stage 8b (host/edge_refinement.hpp) on the device: inserts and evaluates the midpoints of the
+/// level-2 edges of the level-2 cells among `cells` whose ends the surface separates and that the
+/// table does not hold yet, in one pass over those cells (each finds its corners in the table,
+/// inserts its crossed midpoints and evaluates those it created). Every point of those cells'
+/// level must be evaluated already. The host reference is level2_crossing_midpoints.
+void evaluate_crossed_midpoints(OpenCLRuntime& rt, FinePoints& points, const std::vector<CoarseCell>& cells,
+                                const LatticeFrame& frame, const BinnedParticles& bins, float r, float R);
 /// Maps the table for the host and returns a view of it: no copy on CPU devices (the buffers are
 /// allocated host-accessible); an empty view when nothing was ever inserted. Host writes (transition continuity) land in the table. Call
 /// unmap_fine_points before the next device stage touches `points`.

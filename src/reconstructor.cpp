@@ -20,7 +20,6 @@
 #include "band_closure.hpp"
 #include "device_stages.hpp"
 #include "domain_split.hpp"
-#include "edge_refinement.hpp"
 #include "io/io_common.hpp"
 #include "level2_check.hpp"
 #include "level_history.hpp"
@@ -262,17 +261,14 @@ FinePointMap close_band(OpenCLRuntime& rt, FinePoints& points, std::vector<Coars
     }
 }
 
-/// Stage 8b (host/edge_refinement.hpp): true values at the midpoints of crossed level-2 edges.
-/// Continuity never touches these points (no level-3 cell holds them), and the values it wrote
-/// stay in the table (a rehash copies them). `field` is re-mapped.
+/// Stage 8b (host/edge_refinement.hpp): true values at the midpoints of crossed level-2 edges,
+/// found, inserted and evaluated on the device. Continuity never touches these points (no
+/// level-3 cell holds them), and the values it wrote stay in the table (a rehash copies them).
+/// `field` is re-mapped.
 void refine_level2_edges(OpenCLRuntime& rt, FinePoints& points, FinePointMap& field,
                          const std::vector<CoarseCell>& cells, const LatticeFrame& frame, const BinnedParticles& bins,
                          float r, float R) {
-    Level2Midpoints mids = level2_crossing_midpoints(cells, frame, field);
-    if (mids.keys.empty()) return;
-    on_device(rt, points, field, [&] {
-        insert_and_evaluate(rt, points, mids.keys, mids.first, mids.holders, frame, bins, r, R);
-    });
+    on_device(rt, points, field, [&] { evaluate_crossed_midpoints(rt, points, cells, frame, bins, r, R); });
 }
 
 /// Stage 11 (host/vertex_data.hpp): normals and attributes at the vertices, each timed when asked for.

@@ -7,6 +7,7 @@
 #include <set>
 
 #include "device_stages.hpp"
+#include "edge_refinement.hpp"
 #include "reference/reference_stages.hpp"
 #include "stage_constants.hpp"
 #include "test_support.hpp"
@@ -450,6 +451,57 @@ TEST_CASE("flagged level-2 cells get their cube centres in the same pass, others
         REQUIRE(std::isfinite(dev[i]));
         if (ref[i] < 2 * r) CHECK(std::fabs(dev[i] - ref[i]) < 1e-3f * r);  // rim points: see above
         CHECK((dev[i] > 0) == (ref[i] > 0));
+    }
+}
+
+TEST_CASE("edge refinement on the device evaluates exactly the host reference's midpoints", "[device][scalar_field]") {
+    auto& rt = runtime();
+    const float r = 0.025f, R = 4 * r;
+    auto [x, b, c, order] = classify(r, R, 11);
+    const SurfaceCells sc = surface_cells(rt, b, c, r, R, 4 * r, 2.0f, 0);
+    LatticeFrame frame;
+    frame.step = r;
+    frame.coarse_steps = 4;
+    const auto level2 = std::count_if(sc.cells.begin(), sc.cells.end(), [](const CoarseCell& k) { return k.level == 2; });
+    REQUIRE(level2 > 10);
+    REQUIRE(level2 < std::ptrdiff_t(sc.cells.size()));  // both levels: level-3 cells hold some midpoints
+    // Forward and reversed cell order: the work-group that creates a shared midpoint differs.
+    std::vector<FinePointMap> after;
+    std::vector<std::uint64_t> expected;
+    for (bool reversed : {false, true}) {
+        std::vector<CoarseCell> cells = sc.cells;
+        if (reversed) std::reverse(cells.begin(), cells.end());
+        FinePoints points;
+        refine_and_evaluate(rt, points, cells, frame, b, r, R);
+        const FinePointMap before = read_fine_points(rt, points);
+        const std::size_t inserted = points.inserted;
+        expected = level2_crossing_midpoints(cells, frame, before);
+        REQUIRE(expected.size() > 20);
+        evaluate_crossed_midpoints(rt, points, cells, frame, b, r, R);
+        CHECK(points.inserted == inserted + expected.size());
+        after.push_back(read_fine_points(rt, points));
+        for (std::size_t s = 0; s < before.capacity(); ++s)  // the points there before keep their bits
+            if (before.key_at(s) != lattice::kEmptyKey) {
+                const float* v = after.back().find(before.key_at(s));
+                REQUIRE(v != nullptr);
+                REQUIRE(std::memcmp(v, &before.values()[s], sizeof(float)) == 0);
+            }
+    }
+    std::vector<glm::vec3> pts;
+    std::vector<float> dev;
+    for (std::uint64_t key : expected) {
+        const float* v = after[0].find(key);
+        const float* w = after[1].find(key);
+        REQUIRE(v != nullptr);
+        REQUIRE(w != nullptr);
+        CHECK(std::memcmp(v, w, sizeof(float)) == 0);  // the same bits whichever cell evaluated it
+        pts.push_back(glm::vec3(lattice::unpack(key)) * r);
+        dev.push_back(*v);
+    }
+    const auto ref = reference::scalar_field(pts, x, r, R);
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+        REQUIRE(std::isfinite(dev[i]));
+        CHECK(std::fabs(dev[i] - ref[i]) < 1e-3f * r);  // next to the surface: no rim points here
     }
 }
 

@@ -241,7 +241,7 @@ TEST_CASE("level-2 sphere with true values at crossed edge midpoints (edge refin
     SphereSetup s = sphere_setup(12.0, 4, 2);
     const Mesh plain = triangulate_cells(s.cells, s.frame, s.field);
     const glm::dvec3 centre = s.centre;
-    for (std::uint64_t key : level2_crossing_midpoints(s.cells, s.frame, s.field).keys)
+    for (std::uint64_t key : level2_crossing_midpoints(s.cells, s.frame, s.field))
         s.field.insert(key, float(glm::length(glm::dvec3(lattice::unpack(key)) - centre) - s.radius));
     const Mesh refined = triangulate_cells(s.cells, s.frame, s.field);
     CHECK(is_closed_and_oriented(refined));
@@ -265,65 +265,25 @@ TEST_CASE("level-2 sphere with true values at crossed edge midpoints (edge refin
     CHECK(worst_refined < 0.05);
 }
 
-// level2_crossing_midpoints against its definition: each missing crossed midpoint listed once,
-// under the first cell of the input that holds its edge, and none missing.
-// Returns the number of holders with an empty list.
-static std::size_t check_midpoint_lists(const SphereSetup& s) {
-    const Level2Midpoints mids = level2_crossing_midpoints(s.cells, s.frame, s.field);
-    REQUIRE(!mids.keys.empty());
-    REQUIRE(mids.first.size() == mids.holders.size() + 1);
-    CHECK(mids.first.back() == mids.keys.size());
-    const int cs = s.frame.coarse_steps;
-    auto holds = [&](const CoarseCell& c, glm::ivec3 p) {
-        return glm::all(glm::greaterThanEqual(p, c.coord * cs)) && glm::all(glm::lessThanEqual(p, c.coord * cs + cs));
-    };
-    std::set<std::uint64_t> seen;
-    std::size_t holders_seen = 0, empty_lists = 0;
-    for (std::size_t h = 0; h < mids.holders.size(); ++h) {
-        empty_lists += mids.first[h] == mids.first[h + 1];
-        for (std::uint32_t k = mids.first[h]; k < mids.first[h + 1]; ++k) {
-            CHECK(seen.insert(mids.keys[k]).second);  // listed once
-            const glm::ivec3 p = lattice::unpack(mids.keys[k]);
-            CHECK(holds(mids.holders[h], p));
-            // the first cell of the input holding it is this holder
-            const auto first = std::find_if(s.cells.begin(), s.cells.end(), [&](const CoarseCell& c) { return holds(c, p); });
-            CHECK(first->coord == mids.holders[h].coord);
-        }
-        ++holders_seen;
-    }
-    INFO(holders_seen << " holders, " << empty_lists << " with an empty list");
-    // Complete: every crossed level-2 edge of every cell whose midpoint the field lacks is listed.
-    std::size_t crossed = 0;
-    for (const CoarseCell& c : s.cells)
-        for (int z = 0; z <= cs; z += 2)
-            for (int y = 0; y <= cs; y += 2)
-                for (int x = 0; x <= cs; x += 2)
-                    for (int axis = 0; axis < 3; ++axis) {
-                        glm::ivec3 a = c.coord * cs + glm::ivec3(x, y, z), b = a;
-                        if (a[axis] + 2 > c.coord[axis] * cs + cs) continue;
-                        b[axis] += 2;
-                        const float *va = s.field.find(lattice::pack(a)), *vb = s.field.find(lattice::pack(b));
-                        if (!va || !vb || mc::inside(*va) == mc::inside(*vb)) continue;
-                        glm::ivec3 m = a;
-                        m[axis] += 1;
-                        if (s.field.find(lattice::pack(m))) continue;
-                        ++crossed;
-                        REQUIRE(seen.count(lattice::pack(m)) == 1);
-                    }
-    CHECK(crossed >= seen.size());  // edges on shared faces count once per cell
-    return empty_lists;
-}
-
-TEST_CASE("each crossed level-2 midpoint is listed once, under the first cell that holds its edge", "[mesh]") {
-    // Cells that only share others' midpoints stay holders (the claiming fallback).
-    CHECK(check_midpoint_lists(sphere_setup(12.0, 4, 2)) > 0);
-    // Four cells around the line x = 8, y = 4 (cs = 4) but (1, 0, 1): the first holder of the
-    // z edges on that line is (2, 0, 1), a diagonal neighbour of (1, 1, 1), which comes later.
+TEST_CASE("the crossed level-2 midpoints: every crossed edge of every level-2 cell, once, unless held", "[mesh]") {
+    // Three level-2 cells around the line x = 8, y = 4 (cs = 4), a plane at z = 5.3: it crosses
+    // the z edges from z = 4 to 6 at every even (x, y) of the cells' footprint, 21 columns.
     SphereSetup s;
     s.frame = {glm::vec3(0.0f), 0.5f, 4};
     s.cells = {{{2, 0, 1}, 2}, {{1, 1, 1}, 2}, {{2, 1, 1}, 2}};
     s.field = test::make_field(s.cells, s.frame, [](glm::ivec3 p) { return float(p.z) - 5.3f; });
-    check_midpoint_lists(s);
+    std::vector<std::uint64_t> keys = level2_crossing_midpoints(s.cells, s.frame, s.field);
+    CHECK(keys.size() == 21);
+    CHECK(std::is_sorted(keys.begin(), keys.end()));
+    CHECK(std::adjacent_find(keys.begin(), keys.end()) == keys.end());
+    for (std::uint64_t k : keys) {
+        const glm::ivec3 p = lattice::unpack(k);
+        CHECK((p.z == 5 && p.x % 2 == 0 && p.y % 2 == 0));
+    }
+    s.field.insert(keys[3], 0.25f);  // held already (a level-3 cell's point): not listed
+    CHECK(level2_crossing_midpoints(s.cells, s.frame, s.field).size() == 20);
+    s.cells[1].level = 3;  // level-3 cells list none
+    CHECK(level2_crossing_midpoints(s.cells, s.frame, s.field).size() < 20);
 }
 
 TEST_CASE("triangulation is bit-identical for 1 and 2 threads", "[mesh]") {
