@@ -2,7 +2,6 @@
 #include "crack_collapse.hpp"
 
 #include <algorithm>
-#include <deque>
 
 #include <glm/glm.hpp>
 
@@ -27,6 +26,7 @@ private:
     std::vector<std::int32_t> list_;                 // vertex -> its triangle list, -1: not in a run
     std::vector<std::vector<std::uint32_t>> tris_;   // triangles around each run vertex (dead ones pruned lazily)
     std::vector<std::uint8_t> dead_tri_, dead_vertex_;
+    std::vector<std::uint32_t> edge_, rest_, nv_, na_;  // collapse()'s scratch, kept to spare allocations
 
     std::uint32_t* corners(std::uint32_t t) { return m_.triangles.data() + 3 * std::size_t(t); }
     std::vector<std::uint32_t>& alive_triangles(std::uint32_t v);
@@ -67,7 +67,11 @@ bool RunCollapser::collapse(std::uint32_t v, std::uint32_t a) {
     auto& tv = alive_triangles(v);
     auto& ta = alive_triangles(a);
     // v's triangles: the two on edge (v, a), which vanish, and the rest, which take a.
-    std::vector<std::uint32_t> edge, rest, nv, na;
+    auto &edge = edge_, &rest = rest_, &nv = nv_, &na = na_;
+    edge.clear();
+    rest.clear();
+    nv.clear();
+    na.clear();
     for (std::uint32_t t : tv) {
         const std::uint32_t* c = corners(t);
         (c[0] == a || c[1] == a || c[2] == a ? edge : rest).push_back(t);
@@ -134,14 +138,14 @@ std::size_t collapse_crack_runs(Mesh& mesh, const CrackRuns& runs) {
     std::size_t collapsed = 0;
     for (std::size_t i = 0; i < runs.size(); i += runs[i] + 1) {
         const std::uint32_t a = runs[i + 1], b = runs[i + runs[i]];
-        std::deque<std::uint32_t> inner(runs.begin() + std::ptrdiff_t(i + 2), runs.begin() + std::ptrdiff_t(i + runs[i]));
-        // From the ends inwards: each step merges an end vertex of the inner chain into the run end
-        // beside it, the nearer pair first (the smaller move of the surface).
-        auto merge_front = [&] { return c.collapse(inner.front(), a) && (inner.pop_front(), true); };
-        auto merge_back = [&] { return c.collapse(inner.back(), b) && (inner.pop_back(), true); };
-        while (!inner.empty()) {
-            const bool front_first = glm::distance(c.position(inner.front()), c.position(a)) <=
-                                     glm::distance(c.position(inner.back()), c.position(b));
+        // The inner chain is runs[front .. back); from the ends inwards, each step merges an end
+        // vertex of it into the run end beside it, the nearer pair first (the smaller move of the surface).
+        std::size_t front = i + 2, back = i + runs[i];
+        auto merge_front = [&] { return c.collapse(runs[front], a) && (++front, true); };
+        auto merge_back = [&] { return c.collapse(runs[back - 1], b) && (--back, true); };
+        while (front < back) {
+            const bool front_first = glm::distance(c.position(runs[front]), c.position(a)) <=
+                                     glm::distance(c.position(runs[back - 1]), c.position(b));
             if (!(front_first ? merge_front() || merge_back() : merge_back() || merge_front())) break;
             ++collapsed;
         }
