@@ -214,7 +214,7 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
                                  int cells_are_bins, volatile __global int* table_stats, uint2 shift) {
     const int4 c = cells[get_group_id(0)];
     const uint lid = get_local_id(0), lsize = get_local_size(0);
-    if (claim == CLAIM_CROSSED) {  // first the midpoints: most cells create none and gather nothing
+    if (claim == CLAIM_CROSSED) {  // first the midpoints: a cell that creates none gathers nothing
         if ((c.w & 3) != 2) return;
         if (lid == 0) *claimed_count = 0;
         barrier(CLK_LOCAL_MEM_FENCE);
