@@ -177,15 +177,6 @@ inline long fine_insert_counted(volatile __global fine_key_t* keys, ulong capaci
     return count_insert(s, created, stats);
 }
 
-// Inserts `n` lattice points given as packed keys (pack_key) into the fine-point table, recording
-// each one's slot.
-__kernel void fine_insert_keys(__global const ulong* in, uint n, volatile __global fine_key_t* keys, ulong capacity,
-                               uint2 shift, __global long* slot_of, volatile __global int* stats) {
-    uint i = get_global_id(0);
-    if (i >= n) return;
-    slot_of[i] = fine_insert_counted(keys, capacity, unpack_key(in[i]), shift, stats);
-}
-
 // Moves every point (and its value) of an old fine-point table into a larger one.
 __kernel void fine_rehash(__global const fine_key_t* old_keys, __global const float* old_values, ulong old_capacity,
                           volatile __global fine_key_t* keys, __global float* values, ulong capacity, uint2 shift,
