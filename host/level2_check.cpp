@@ -73,14 +73,17 @@ bool cell_fails(const FinePointMap& field, const CoarseCell& c, int cs, float to
 
 std::vector<std::size_t> cells_failing_level2_check(const std::vector<CoarseCell>& cells,
                                                     const std::vector<std::uint8_t>& checked, const LatticeFrame& frame,
-                                                    const FinePointMap& field, float tolerance) {
+                                                    const FinePointMap& field, float tolerance,
+                                                    const std::vector<float>& scale) {
     if (checked.size() != cells.size()) throw Error("level-2 check: one flag per cell expected");
+    if (!scale.empty() && scale.size() != cells.size()) throw Error("level-2 check: one tolerance factor per cell expected");
     std::vector<std::uint8_t> fails(cells.size(), 0);
     tbb::enumerable_thread_specific<CellValues> scratch;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 256), [&](const auto& range) {
         CellValues& v = scratch.local();
         for (std::size_t i = range.begin(); i != range.end(); ++i)
-            if (cells[i].level == 2 && checked[i]) fails[i] = cell_fails(field, cells[i], frame.coarse_steps, tolerance, v);
+            if (cells[i].level == 2 && checked[i])
+                fails[i] = cell_fails(field, cells[i], frame.coarse_steps, scale.empty() ? tolerance : tolerance * scale[i], v);
     });
     std::vector<std::size_t> out;
     for (std::size_t i = 0; i < cells.size(); ++i)

@@ -23,9 +23,11 @@ namespace trilevel {
 /// the failing cell: with the crack collapse a lone level-3 cell no longer costs crack patches on
 /// its faces, and the 3x3x3 block that each failing cell once took with it (while it did) cost
 /// more triangles than accuracy (docs/design.md, "Level-2 check"). Every corner and centre of a
-/// checked cell must be in `field` (throws Error).
+/// checked cell must be in `field` (throws Error). `scale`, empty or one factor per cell, multiplies
+/// the tolerance cell by cell: the level history's hysteresis (level_history.hpp, check_scale).
 std::vector<std::size_t> cells_failing_level2_check(const std::vector<CoarseCell>& cells,
                                                     const std::vector<std::uint8_t>& checked, const LatticeFrame& frame,
-                                                    const FinePointMap& field, float tolerance);
+                                                    const FinePointMap& field, float tolerance,
+                                                    const std::vector<float>& scale = {});
 
 }  // namespace trilevel

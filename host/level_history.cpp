@@ -31,6 +31,18 @@ std::size_t LevelHistory::apply(std::vector<CoarseCell>& cells, const std::vecto
     return held;
 }
 
+std::vector<float> LevelHistory::check_scale(const std::vector<CoarseCell>& cells, const CoarseBase& base,
+                                             float h) const {
+    std::vector<float> scale;
+    if (!valid_ || h <= 0.0f) return scale;
+    scale.reserve(cells.size());
+    for (const CoarseCell& c : cells) {
+        const std::uint8_t before = previous(c.coord, base);
+        scale.push_back(before == 3 ? 1.0f - h : before == 2 ? 1.0f + h : 1.0f);
+    }
+    return scale;
+}
+
 LevelHistory::Flips LevelHistory::compare(const std::vector<CoarseCell>& cells, const CoarseBase& base) const {
     Flips f;
     if (!valid_) return f;

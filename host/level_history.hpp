@@ -37,6 +37,12 @@ public:
                       const std::vector<std::uint8_t>& forced, const CoarseBase& base, float threshold,
                       float h) const;
 
+    /// Hysteresis for the level-2 check (level2_check.hpp), one factor per cell of `cells` on its
+    /// tolerance: 1 - h where the previous frame had the cell at level 3 (it stays there unless
+    /// its lattice error falls clearly below the tolerance), 1 + h where it had it at level 2,
+    /// 1 for cells new to this frame. Empty without a previous frame or with h = 0.
+    std::vector<float> check_scale(const std::vector<CoarseCell>& cells, const CoarseBase& base, float h) const;
+
     /// Cells of `cells` that the previous frame had too, and how many of them changed level.
     struct Flips {
         std::size_t compared = 0, changed = 0;

@@ -207,15 +207,22 @@ void on_device(OpenCLRuntime& rt, FinePoints& points, FinePointMap& field, F&& d
     field = map_fine_points(rt, points);
 }
 
+/// What the level-2 check (host/level2_check.hpp) takes: which cells it checks, its tolerance in
+/// world units (0: off) and the level history's factor on it per cell (empty: 1).
+struct Level2Check {
+    std::vector<std::uint8_t> checked;
+    float tolerance = 0.0f;
+    std::vector<float> scale;
+};
+
 /// The level-2 check (host/level2_check.hpp) on freshly evaluated cells and cube centres, before
 /// continuity: the level-2 cells that fail it become level 3 and get their remaining points
 /// (`field` is re-mapped then). Returns how many.
 std::size_t promote_failing_cells(OpenCLRuntime& rt, FinePoints& points, FinePointMap& field,
-                                  std::vector<CoarseCell>& cells, const std::vector<std::uint8_t>& checked,
-                                  const LatticeFrame& frame, const BinnedParticles& bins, float r, float R,
-                                  float tolerance) {
+                                  std::vector<CoarseCell>& cells, const Level2Check& check, const LatticeFrame& frame,
+                                  const BinnedParticles& bins, float r, float R) {
     std::vector<CoarseCell> promoted;
-    for (std::size_t i : cells_failing_level2_check(cells, checked, frame, field, tolerance)) {
+    for (std::size_t i : cells_failing_level2_check(cells, check.checked, frame, field, check.tolerance, check.scale)) {
         cells[i].level = 3;
         promoted.push_back(cells[i]);
     }
@@ -229,19 +236,19 @@ std::size_t promote_failing_cells(OpenCLRuntime& rt, FinePoints& points, FinePoi
 /// repeat. Returns a view of the mapped fine-point table; `cells` gains the added cells.
 FinePointMap close_band(OpenCLRuntime& rt, FinePoints& points, std::vector<CoarseCell>& cells,
                         const LatticeFrame& frame, const BinnedParticles& bins, float r, float R,
-                        const std::vector<std::uint8_t>& checked, float level2_tolerance, Stats& s) {
+                        const Level2Check& level2, Stats& s) {
     std::vector<CoarseCell> fresh = cells;
     const std::vector<std::uint8_t> no_centres;
     double t_field = 0, t_closure = 0;
     for (bool first = true;; first = false) {
         auto t0 = Clock::now();
         rt.set_stage("scalar_field");
-        const bool check = first && level2_tolerance > 0.0f;  // the cube centres join the first pass
-        refine_and_evaluate(rt, points, fresh, frame, bins, r, R, check ? checked : no_centres);
+        const bool check = first && level2.tolerance > 0.0f;  // the cube centres join the first pass
+        refine_and_evaluate(rt, points, fresh, frame, bins, r, R, check ? level2.checked : no_centres);
         FinePointMap field = map_fine_points(rt, points);
         if (check)
             s.level2_check_cells =
-                promote_failing_cells(rt, points, field, cells, checked, frame, bins, r, R, level2_tolerance);
+                promote_failing_cells(rt, points, field, cells, level2, frame, bins, r, R);
         auto t1 = Clock::now();
         rt.set_stage("band_closure");
         apply_transition_continuity(cells, frame, field);
@@ -502,11 +509,13 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     UnmapOnFailure unmap_guard{rt, points};
     Mesh mesh;
     if (!cells.empty()) {  // particles without surface (none can be: a safety net) give an empty mesh
-        const float tolerance = g.forced_level == 0 ? p.level2_tolerance * r : 0.0f;  // 0: off
-        std::vector<std::uint8_t> checked;  // the check's second opinion, where the curvature is not clearly flat
-        if (tolerance > 0.0f)
-            for (float k : sc.curvature) checked.push_back(k >= constants::kLevel2CheckCurvature);
-        FinePointMap field = close_band(rt, points, cells, g.frame, bins, r, R, checked, tolerance, s);
+        Level2Check level2;  // the check's second opinion, where the curvature is not clearly flat
+        level2.tolerance = g.forced_level == 0 ? p.level2_tolerance * r : 0.0f;
+        if (level2.tolerance > 0.0f) {
+            for (float k : sc.curvature) level2.checked.push_back(k >= constants::kLevel2CheckCurvature);
+            if (!history.empty()) level2.scale = history.check_scale(cells, g.coarse_base, p.level_hysteresis);
+        }
+        FinePointMap field = close_band(rt, points, cells, g.frame, bins, r, R, level2, s);
         timer.restart();  // close_band recorded its own two entries
         rt.set_stage("edge_refinement");
         refine_level2_edges(rt, points, field, cells, g.frame, bins, r, R);

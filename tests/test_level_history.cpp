@@ -20,13 +20,14 @@ Params adaptive(float r, float hysteresis) {
     return p;
 }
 
-/// Level changes between consecutive frames of the generated falling-drop, summed over `frames`, at
-/// threshold 4 with the level-2 check off: hysteresis acts on curvature, and the scene's oscillating
-/// drops were made to cross that value (at 4.5 they pop a third as often: 23 flips in 60 frames).
+/// Level changes between consecutive frames of the generated falling-drop, summed over `frames`.
+/// By default at threshold 4 with the level-2 check off: hysteresis acts on curvature, and the
+/// scene's oscillating drops were made to cross that value (at 4.5 they pop a third as often: 23
+/// flips in 60 frames). `defaults`: the default levels instead (threshold 8, the level-2 check on).
 struct SequenceFlips {
     std::size_t flips = 0, compared = 0, held = 0, level3 = 0;
 };
-SequenceFlips falling_drop_flips(Reconstructor& rec, float hysteresis, int frames) {
+SequenceFlips falling_drop_flips(Reconstructor& rec, float hysteresis, int frames, bool defaults = false) {
     const float r = 0.025f;
     SequenceFlips out;
     rec.reset_history();
@@ -34,8 +35,10 @@ SequenceFlips falling_drop_flips(Reconstructor& rec, float hysteresis, int frame
         const ParticleSet s = generate_scene("falling-drop", r, 1, f);
         Stats st;
         Params p = adaptive(r, hysteresis);
-        p.curvature_threshold = 4.0f;
-        p.level2_tolerance = 0.0f;
+        if (!defaults) {
+            p.curvature_threshold = 4.0f;
+            p.level2_tolerance = 0.0f;
+        }
         const Mesh m = rec.reconstruct(s.positions.data(), s.size(), p, &st);
         INFO("frame " << f << ", hysteresis " << hysteresis);
         REQUIRE(is_closed_and_oriented(m));
@@ -168,5 +171,19 @@ TEST_CASE("level history: hysteresis cuts the level flips of a moving scene", "[
     CHECK(double(on.flips) < 0.5 * double(off.flips));
     CHECK(on.held > 0);
     // Hysteresis holds levels, it does not shift them wholesale to level 3.
+    CHECK(double(on.level3) < 1.25 * double(off.level3));
+}
+
+TEST_CASE("level history: hysteresis holds the level-2 check's decisions too", "[levels][history][slow]") {
+    // With the default levels the check decides the falling-drop's level-3 cells (curvature stays
+    // under 8): a cell promoted last frame keeps level 3 unless its gap falls under (1 - h) times
+    // the tolerance, one at level 2 needs (1 + h) times it (LevelHistory::check_scale).
+    Reconstructor rec;
+    const SequenceFlips off = falling_drop_flips(rec, 0.0f, 60, true);
+    const SequenceFlips on = falling_drop_flips(rec, 0.2f, 60, true);
+    INFO("flips without hysteresis " << off.flips << ", with 0.2: " << on.flips << " of " << on.compared
+                                     << " cells; level-3 cells " << off.level3 << " / " << on.level3);
+    REQUIRE(off.flips >= 300);  // the check's decisions jump from frame to frame without it
+    CHECK(double(on.flips) < 0.6 * double(off.flips));
     CHECK(double(on.level3) < 1.25 * double(off.level3));
 }
