@@ -69,6 +69,24 @@ Classified classify(float r, float R, std::uint32_t seed) {
     return c;
 }
 
+/// The adaptive lattice of radius r: steps of r, coarse cells of 4 steps (64-bit keys).
+LatticeFrame adaptive_frame(float r) {
+    LatticeFrame frame;
+    frame.step = r;
+    frame.coarse_steps = 4;
+    return frame;
+}
+
+/// 40 level-2 cells that share no point (every other coarse cell), 27 points each: more than a
+/// table sized by estimate_points holds, so that the one-pass refinement fills it up.
+std::vector<CoarseCell> isolated_level2_cells() {
+    std::vector<CoarseCell> cells;
+    for (int z = 3; z <= 5; z += 2)
+        for (int y = 3; y <= 9; y += 2)
+            for (int x = 1; x <= 9; x += 2) cells.push_back({glm::ivec3(x, y, z), 2});
+    return cells;
+}
+
 /// The first `count` keys of `in` inserted by hash_insert_keys into an empty table of `capacity`
 /// slots: the table, its counters (overflow flag, keys inserted) and each key's slot.
 struct Inserted {
@@ -247,9 +265,7 @@ TEST_CASE("scalar field on fine points matches the C++ reference, each point eva
     const float r = 0.025f, R = 4 * r;
     auto [x, b, c, order] = classify(r, R, 11);
     SurfaceCells sc = surface_cells(rt, b, c, r, R, 4 * r, 2.0f, 0);
-    LatticeFrame frame;
-    frame.step = r;
-    frame.coarse_steps = 4;
+    LatticeFrame frame = adaptive_frame(r);
     FinePoints points;
     // Two passes over overlapping cell sets: the second evaluates only the new points.
     std::vector<CoarseCell> half(sc.cells.begin(), sc.cells.begin() + sc.cells.size() / 2);
@@ -311,9 +327,7 @@ TEST_CASE("a fine point gets the same bits whichever of its cells evaluates it",
     ParticleClasses c = classify_particles(rt, b, r, R);
     const SurfaceCells sc = surface_cells(rt, b, c, r, R, 4 * r, 1e9f, 3);  // every cell level 3
     REQUIRE(sc.cells.size() > 50);
-    LatticeFrame frame;
-    frame.step = r;
-    frame.coarse_steps = 4;
+    LatticeFrame frame = adaptive_frame(r);
     // In reverse order the other cell of each shared point tends to claim it first.
     const std::vector<CoarseCell> reversed(sc.cells.rbegin(), sc.cells.rend());
     FinePoints forward_points, reversed_points;
@@ -352,18 +366,13 @@ TEST_CASE("refinement falls back to separate insert and evaluate passes when the
     auto& rt = runtime();
     const float r = 0.025f, R = 4 * r;
     auto [x, b, c, order] = classify(r, R, 5);
-    LatticeFrame frame;
-    frame.step = r;
-    frame.coarse_steps = 4;
+    LatticeFrame frame = adaptive_frame(r);
     const bool narrow = GENERATE(false, true);  // 64- and 32-bit keys: the growth rehashes both
     if (narrow) frame.keys = lattice::key_layout_for(glm::ivec3(60));
     INFO((narrow ? "32" : "64") << "-bit keys");
     // 40 level-2 cells that share no point: 1080 points, where the table is sized for 2 x 12 a
     // cell (1024 slots). The one-pass refinement fills it up and must hand over to the passes apart.
-    std::vector<CoarseCell> cells;
-    for (int z = 3; z <= 5; z += 2)
-        for (int y = 3; y <= 9; y += 2)
-            for (int xx = 1; xx <= 9; xx += 2) cells.push_back({glm::ivec3(xx, y, z), 2});
+    const std::vector<CoarseCell> cells = isolated_level2_cells();
     REQUIRE(cells.size() == 40);
     FinePoints points;
     refine_and_evaluate(rt, points, cells, frame, b, r, R);
@@ -397,18 +406,13 @@ TEST_CASE("flagged level-2 cells get their cube centres in the same pass, others
     auto& rt = runtime();
     const float r = 0.025f, R = 4 * r;
     auto [x, b, c, order] = classify(r, R, 5);
-    LatticeFrame frame;
-    frame.step = r;
-    frame.coarse_steps = 4;
+    LatticeFrame frame = adaptive_frame(r);
     // The fallback's 40 level-2 cells, every other one flagged, plus a flagged level-3 cell (its
     // centres are its own points already). `roomy`: first a 6x6x2 block of level-3 cells away
     // from them (5625 points) leaves the table room for them, so the one fused pass takes the
     // centres; else the table fills up and the separate insert and claim passes must take them.
     const bool roomy = GENERATE(true, false);
-    std::vector<CoarseCell> cells;
-    for (int z = 3; z <= 5; z += 2)
-        for (int y = 3; y <= 9; y += 2)
-            for (int xx = 1; xx <= 9; xx += 2) cells.push_back({glm::ivec3(xx, y, z), 2});
+    std::vector<CoarseCell> cells = isolated_level2_cells();
     cells.push_back({glm::ivec3(11, 11, 11), 3});
     std::vector<std::uint8_t> flags(cells.size(), 0);
     for (std::size_t i = 0; i < cells.size(); i += 2) flags[i] = 1;
@@ -459,9 +463,7 @@ TEST_CASE("edge refinement on the device evaluates exactly the host reference's 
     const float r = 0.025f, R = 4 * r;
     auto [x, b, c, order] = classify(r, R, 11);
     const SurfaceCells sc = surface_cells(rt, b, c, r, R, 4 * r, 2.0f, 0);
-    LatticeFrame frame;
-    frame.step = r;
-    frame.coarse_steps = 4;
+    LatticeFrame frame = adaptive_frame(r);
     const auto level2 = std::count_if(sc.cells.begin(), sc.cells.end(), [](const CoarseCell& k) { return k.level == 2; });
     REQUIRE(level2 > 10);
     REQUIRE(level2 < std::ptrdiff_t(sc.cells.size()));  // both levels: level-3 cells hold some midpoints
@@ -514,9 +516,7 @@ TEST_CASE("32-bit and 64-bit fine-point keys hold the same points with the same 
     std::vector<FinePointMap> maps;
     std::vector<std::size_t> inserted;
     for (bool narrow : {false, true}) {
-        LatticeFrame frame;
-        frame.step = r;
-        frame.coarse_steps = 4;
+        LatticeFrame frame = adaptive_frame(r);
         if (narrow) frame.keys = lattice::key_layout_for(glm::ivec3(200));
         REQUIRE(frame.keys.wide == !narrow);
         FinePoints points;
