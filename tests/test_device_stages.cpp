@@ -507,6 +507,53 @@ TEST_CASE("edge refinement on the device evaluates exactly the host reference's 
     }
 }
 
+TEST_CASE("edge refinement on the device grows the table when the midpoints overrun it", "[device][scalar_field]") {
+    auto& rt = runtime();
+    const float r = 0.025f, R = 4 * r;
+    auto [x, b, c, order] = classify(r, R, 5);
+    const LatticeFrame frame = adaptive_frame(r);
+    const std::vector<CoarseCell> cells = isolated_level2_cells();
+    FinePoints points;
+    refine_and_evaluate(rt, points, cells, frame, b, r, R);
+    const std::size_t before = points.inserted, capacity = points.hash.capacity;
+    REQUIRE(before == 40 * 27);
+    {  // every level-2 edge crossed: corner signs in a checkerboard, written through the host view
+        FinePointMap view = map_fine_points(rt, points);
+        for (const CoarseCell& cell : cells)
+            for (int k = 0; k <= 4; k += 2)
+                for (int j = 0; j <= 4; j += 2)
+                    for (int i = 0; i <= 4; i += 2) {
+                        const glm::ivec3 p = cell.coord * 4 + glm::ivec3(i, j, k);
+                        *view.find(p) = ((i + j + k) / 2) % 2 ? 0.5f * r : -0.5f * r;
+                    }
+        unmap_fine_points(rt, points);
+    }
+    const FinePointMap host = read_fine_points(rt, points);
+    const std::vector<std::uint64_t> expected = level2_crossing_midpoints(cells, frame, host);
+    REQUIRE(expected.size() == 40 * 54);  // 54 edges a cell, none shared
+    evaluate_crossed_midpoints(rt, points, cells, frame, b, r, R);
+    CHECK(points.hash.capacity > capacity);  // 2160 midpoints where the pass reserved 80
+    CHECK(points.inserted == before + expected.size());
+    const FinePointMap map = read_fine_points(rt, points);
+    std::vector<glm::vec3> pts;
+    std::vector<float> dev;
+    for (std::uint64_t key : expected) {
+        const float* v = map.find(key);
+        REQUIRE(v != nullptr);
+        pts.push_back(glm::vec3(lattice::unpack(key)) * r);
+        dev.push_back(*v);
+    }
+    const auto ref = reference::scalar_field(pts, x, r, R);
+    std::size_t near = 0;
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+        REQUIRE(std::isfinite(dev[i]));
+        if (ref[i] >= 2 * r) continue;  // rim points: only the side of the surface is sure (above)
+        ++near;
+        CHECK(std::fabs(dev[i] - ref[i]) < 1e-3f * r);
+    }
+    CHECK(near > 0);
+}
+
 TEST_CASE("32-bit and 64-bit fine-point keys hold the same points with the same value bits", "[device][scalar_field][hash]") {
     auto& rt = runtime();
     const float r = 0.025f, R = 4 * r;
