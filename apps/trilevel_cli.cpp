@@ -117,7 +117,7 @@ trilevel::Params make_params(const ReconstructArgs& a) {
     else if (a.crack_closing == "patches") p.crack_closing = trilevel::CrackClosing::Patches;
     else throw UsageError("--crack-closing must be collapse or patches, got '" + a.crack_closing + "'");
     if (!a.memory.empty()) p.memory_limit_bytes = parse_bytes(a.memory);
-    p.level_hysteresis = 0.2f;  // sequences (README: 0.2 removes 71% of the level changes); no effect on one file
+    p.level_hysteresis = 0.2f;  // sequences (README, "Temporal coherence"); no effect on one file
     if (!a.hysteresis.empty()) {
         const double h = parse_number("--level-hysteresis", a.hysteresis);
         if (!(h >= 0 && h < 1)) throw UsageError("--level-hysteresis must lie in [0, 1), got '" + a.hysteresis + "'");
@@ -445,7 +445,8 @@ int run(int argc, char** argv) {
     rec->add_flag("-q,--quiet", ra.quiet, "Print nothing on success");
     rec->add_option("--level-hysteresis", ra.hysteresis,
                     "Sequences, adaptive mode: a cell keeps its previous level until its curvature passes the "
-                    "threshold by this fraction of it (default 0.2, 0 = off)");
+                    "threshold by this fraction of it, and the level-2 check's tolerance is held the same way "
+                    "(default 0.2, 0 = off)");
     rec->add_option("--start", ra.start, "Sequences: first frame number to process (inclusive)");
     rec->add_option("--end", ra.end, "Sequences: last frame number to process (inclusive)");
     rec->add_flag("--skip-existing", ra.skip_existing, "Sequences: skip frames whose outputs exist (resume a run)");

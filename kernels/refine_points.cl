@@ -7,10 +7,12 @@
 // needs the centres of its level-2 cubes, which the same passes then insert and evaluate.
 #define CELL_CUBE_CENTRES 4
 
+inline int cell_level(int w) { return w & 3; }
+
 // Whether the cell whose int4 has this w holds the lattice point with `odd` odd coordinates (of
 // its local offset): level 3 every point, level 2 the even ones and, when asked, the cube centres.
 inline bool cell_has_point(int w, int odd) {
-    return (w & 3) != 2 || odd == 0 || ((w & CELL_CUBE_CENTRES) && odd == 3);
+    return cell_level(w) != 2 || odd == 0 || ((w & CELL_CUBE_CENTRES) && odd == 3);
 }
 
 // cells: x, y, z = coarse coordinates, w = level (| CELL_CUBE_CENTRES). One work-item per (cell, local point).

@@ -215,7 +215,7 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
     const int4 c = cells[get_group_id(0)];
     const uint lid = get_local_id(0), lsize = get_local_size(0);
     if (claim == CLAIM_CROSSED) {  // first the midpoints: a cell that creates none gathers nothing
-        if ((c.w & 3) != 2) return;
+        if (cell_level(c.w) != 2) return;
         if (lid == 0) *claimed_count = 0;
         barrier(CLK_LOCAL_MEM_FENCE);
         // The corners in the upper half of `claimed`, the created midpoints (at most 3 (cs/2) (cs/2 + 1)^2,

@@ -227,8 +227,9 @@ level2_tolerance: adaptive mode: also mesh with cells of r where the level-2 lat
     (CLI --level2-tolerance; default 0.32, as the library's); 0 = off.
 memory_limit: budget in bytes for the largest allocations; 0: the device's and host's limits.
 level_hysteresis: adaptive mode, frame sequences on one Reconstructor: a coarse cell keeps its
-    previous frame's level until its curvature passes the threshold by this fraction of it, in
-    [0, 1); 0 (the default, as the library's) makes every call independent of the previous one.
+    previous frame's level until its curvature passes the threshold by this fraction of it, and
+    the level-2 check's tolerance is held the same way (times 1 - h or 1 + h), in [0, 1); 0 (the
+    default, as the library's) makes every call independent of the previous one.
     The CLI uses 0.2 (--level-hysteresis). stats["level_flips"] reports the level changes.
 crack_closing: adaptive mode: "collapse" (the default: crack patches, then the cracks' inner
     crossings merged into the level-2 crossings, two triangles fewer each) or "patches" (the

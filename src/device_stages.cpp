@@ -327,14 +327,21 @@ SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& b, Particle
 
 namespace {
 
+/// Whether cell i of `cells` gets the centres of its level-2 cubes: a level-2 cell flagged in
+/// `cube_centres` (empty: none is).
+bool takes_cube_centres(const std::vector<CoarseCell>& cells, const std::vector<std::uint8_t>& cube_centres,
+                        std::size_t i) {
+    return cells[i].level == 2 && !cube_centres.empty() && cube_centres[i];
+}
+
 /// Unique points a batch of cells adds, for sizing the table (interior points are shared by none).
 std::size_t estimate_points(const std::vector<CoarseCell>& cells, const std::vector<std::uint8_t>& cube_centres,
                             int coarse_steps) {
+    const std::size_t cubes = std::size_t(coarse_steps / 2);
     std::size_t total = 0;
     for (std::size_t i = 0; i < cells.size(); ++i) {
         const CoarseCell& c = cells[i];
-        const std::size_t cubes = std::size_t(coarse_steps / 2);
-        if (c.level == 2 && !cube_centres.empty() && cube_centres[i]) total += cubes * cubes * cubes;
+        if (takes_cube_centres(cells, cube_centres, i)) total += cubes * cubes * cubes;
         std::size_t side = std::size_t(coarse_steps / stride(c.level));
         // A cell owns about side^3 points (neighbours share the rest), plus some on faces without a
         // neighbour. Underestimates only cost a rehash (the table grows past FinePoints::kMaxLoad).
@@ -413,8 +420,8 @@ DeviceBuffer cell_buffer(OpenCLRuntime& rt, const std::vector<CoarseCell>& cells
     std::vector<cl_int4> data;
     for (std::size_t i = 0; i < cells.size(); ++i) {
         const CoarseCell& c = cells[i];
-        const bool centres = c.level == 2 && !cube_centres.empty() && cube_centres[i];
-        data.push_back({{c.coord.x, c.coord.y, c.coord.z, c.level | (centres ? kCubeCentres : 0)}});
+        data.push_back({{c.coord.x, c.coord.y, c.coord.z,
+                         c.level | (takes_cube_centres(cells, cube_centres, i) ? kCubeCentres : 0)}});
     }
     if (in_morton_order) lattice::sort_by_morton(data, [](const cl_int4& c) { return glm::ivec3(c.s[0], c.s[1], c.s[2]); });
     return upload(rt, data, "cell list");

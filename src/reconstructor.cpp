@@ -246,9 +246,7 @@ FinePointMap close_band(OpenCLRuntime& rt, FinePoints& points, std::vector<Coars
         const bool check = first && level2.tolerance > 0.0f;  // the cube centres join the first pass
         refine_and_evaluate(rt, points, fresh, frame, bins, r, R, check ? level2.checked : no_centres);
         FinePointMap field = map_fine_points(rt, points);
-        if (check)
-            s.level2_check_cells =
-                promote_failing_cells(rt, points, field, cells, level2, frame, bins, r, R);
+        if (check) s.level2_check_cells = promote_failing_cells(rt, points, field, cells, level2, frame, bins, r, R);
         auto t1 = Clock::now();
         rt.set_stage("band_closure");
         apply_transition_continuity(cells, frame, field);
@@ -513,7 +511,7 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
         level2.tolerance = g.forced_level == 0 ? p.level2_tolerance * r : 0.0f;
         if (level2.tolerance > 0.0f) {
             for (float k : sc.curvature) level2.checked.push_back(k >= constants::kLevel2CheckCurvature);
-            if (!history.empty()) level2.scale = history.check_scale(cells, g.coarse_base, p.level_hysteresis);
+            level2.scale = history.check_scale(cells, g.coarse_base, p.level_hysteresis);  // empty: no history
         }
         FinePointMap field = close_band(rt, points, cells, g.frame, bins, r, R, level2, s);
         timer.restart();  // close_band recorded its own two entries
