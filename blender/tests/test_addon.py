@@ -101,8 +101,8 @@ def main():
     if args.module_dir:
         os.environ["TRILEVEL_PYTHON_PATH"] = os.path.abspath(args.module_dir)
     sys.path.insert(0, os.path.dirname(HERE))  # the repository's blender/: the add-on package
+    import bpy  # first: the bpy wheel puts Blender's own modules (addon_utils) on sys.path
     import addon_utils
-    import bpy
     import numpy as np
 
     print(f"Blender {bpy.app.version_string}, Python {sys.version.split()[0]}, numpy {np.__version__}")
