@@ -227,8 +227,41 @@ def main():
     check(obj.trilevel.last_error == "" and len(obj.data.polygons) == len(expected[4][1]), "no recovery after an error")
     print("errors: reported, no object left, the handler recovers")
 
+    # Smoothing reaches reconstruct only where the module's signature has it.
     keywords = module_loader.reconstruct_keywords(trilevel)
-    print("smoothing offered:", "smooth" in keywords)
+    print("smoothing in this module:", "smooth" in keywords)
+    obj.trilevel.smooth = True
+    obj.trilevel.smooth_iterations = 7
+    if "smooth" not in keywords:
+        check(obj.trilevel.last_error == "", f"smooth without module support: {obj.trilevel.last_error}")
+
+    class FakeReconstructor:
+        calls = []
+
+        def reconstruct(self, positions, particle_radius, **kwargs):
+            FakeReconstructor.calls.append(kwargs)
+            return trilevel.Reconstructor().reconstruct(positions, particle_radius, **{
+                k: v for k, v in kwargs.items() if k not in ("smooth", "smooth_iterations")})
+
+        def reset_history(self):
+            pass
+
+    FakeReconstructor.reconstruct.__doc__ = (
+        "reconstruct(self: trilevel.Reconstructor, positions: numpy.ndarray[numpy.float32], particle_radius: float, "
+        "*, mode: str = 'adaptive', normals: Optional[str] = None, attributes: Optional[dict] = None, "
+        "smooth: bool = False, smooth_iterations: int = 0, return_levels: bool = False) -> tuple\n\nDoc.")
+
+    class FakeModule:
+        Reconstructor = FakeReconstructor
+        read_particles = staticmethod(trilevel.read_particles)
+
+    surface.reconstruct_file(FakeModule, os.path.join(work, "d_0001.ply"), obj.trilevel)
+    call = FakeReconstructor.calls[-1]
+    check((call.get("smooth"), call.get("smooth_iterations")) == (True, 7), f"smoothing not passed: {call}")
+    obj.trilevel.smooth = False
+    surface.reconstruct_file(FakeModule, os.path.join(work, "d_0001.ply"), obj.trilevel)
+    check("smooth" not in FakeReconstructor.calls[-1], "smoothing passed while off")
+    print("smoothing: passed on (smooth=True, smooth_iterations=7) to a module whose signature has it")
     addon_utils.disable("trilevel_blender", default_set=True)
     print("PASSED")
 

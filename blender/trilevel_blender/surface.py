@@ -21,7 +21,7 @@ OTHER_COLOUR = (170 / 255, 170 / 255, 170 / 255, 1.0)
 
 FrameMesh = collections.namedtuple("FrameMesh", "vertices triangles levels normals attributes stats")
 
-_reconstructor = None
+_reconstructor = None  # (module, its Reconstructor)
 # cache id of an object -> (settings key, OrderedDict{(file path, mtime ns, size): FrameMesh})
 _caches = {}
 
@@ -29,9 +29,9 @@ _caches = {}
 def reconstructor(module):
     """One Reconstructor for the session: it compiles the OpenCL kernels once."""
     global _reconstructor
-    if _reconstructor is None:
-        _reconstructor = module.Reconstructor()
-    return _reconstructor
+    if _reconstructor is None or _reconstructor[0] is not module:
+        _reconstructor = (module, module.Reconstructor())
+    return _reconstructor[1]
 
 
 def parse_attributes(text):
