@@ -217,6 +217,15 @@ def main():
         check("bad_0000.ply" in str(e), f"the report does not name the file: {e}")
         print(f"reported: {str(e).strip()}")
     check(len(bpy.data.objects) == objects_before, "a failed add_surface left an object")
+    # One file picked as a sequence (as the menu's file browser does): its number becomes {}.
+    scene.frame_set(5)
+    check(bpy.ops.trilevel.add_surface(filepath=os.path.join(work, "d_0002.ply"), radius=R, sequence=True,
+                                       name="Picked") == {'FINISHED'}, "add_surface of a picked frame")
+    picked = bpy.data.objects["Picked"]
+    check(picked.trilevel.filepath == os.path.join(work, "d_{}.ply"), f"picked pattern {picked.trilevel.filepath}")
+    check(len(picked.data.polygons) == len(expected[5][1]), "the picked sequence does not show frame 5")
+    bpy.data.objects.remove(picked)
+    objects_before = len(bpy.data.objects)
     # In the handler: the error is kept on the object, the mesh emptied, the next good frame shown.
     obj.trilevel.filepath = os.path.join(work, "bad_{}.ply")
     scene.frame_set(0)

@@ -47,3 +47,21 @@ def file_for_frame(pattern, number):
             raise ValueError(f"{pattern}: no such file")
         return pattern
     return list_frames(pattern).get(number)
+
+
+def sequence_pattern(path):
+    """`path` with the last run of digits in its file name replaced by `{}` (drop_0007.vtk ->
+    drop_{}.vtk), for picking a sequence by one of its files; `path` itself when it already is a
+    pattern or its name has no digits."""
+    if is_sequence(path):
+        return path
+    directory, name = os.path.split(path)
+    end = len(name)
+    while end > 0 and not name[end - 1].isdigit():
+        end -= 1
+    start = end
+    while start > 0 and name[start - 1].isdigit():
+        start -= 1
+    if start == end:
+        return path
+    return os.path.join(directory, name[:start] + "{}" + name[end:])

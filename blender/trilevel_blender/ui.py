@@ -184,8 +184,19 @@ class TRILEVEL_OT_add_surface(bpy.types.Operator):
     frame_offset: bpy.props.IntProperty(name="Frame offset", default=0,
                                         description="Frame N shows file N - offset")
     name: bpy.props.StringProperty(name="Name", default="Trilevel Surface")
+    sequence: bpy.props.BoolProperty(
+        name="Sequence", default=False,
+        description="Take the picked file as one frame of a sequence: its last number becomes {}")
+    filter_glob: bpy.props.StringProperty(default="*.vtk;*.vtu;*.bgeo;*.ply;*.xyz", options={'HIDDEN'})
+
+    def invoke(self, context, event):
+        self.sequence = True  # from the menu: pick one file of the sequence
+        context.window_manager.fileselect_add(self)
+        return {'RUNNING_MODAL'}
 
     def execute(self, context):
+        if self.sequence:
+            self.filepath = frames.sequence_pattern(self.filepath)
         try:
             load_module(context)
         except ImportError as e:
@@ -274,6 +285,26 @@ class TRILEVEL_OT_clear_cache(bpy.types.Operator):
         return {'FINISHED'}
 
 
+class TRILEVEL_OT_use_sequence(bpy.types.Operator):
+    """Show the sequence the particle file belongs to: its last number becomes {}"""
+    bl_idname = "trilevel.use_sequence"
+    bl_label = "Use Sequence"
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.object
+        return obj is not None and obj.trilevel.enabled and not frames.is_sequence(obj.trilevel.filepath)
+
+    def execute(self, context):
+        s = context.object.trilevel
+        pattern = frames.sequence_pattern(s.filepath)
+        if pattern == s.filepath:
+            self.report({'ERROR'}, f"{s.filepath}: no frame number in the file name")
+            return {'CANCELLED'}
+        s.filepath = pattern
+        return {'FINISHED'}
+
+
 class TRILEVEL_OT_report(bpy.types.Operator):
     """Show a trilevel error in the report area"""
     bl_idname = "trilevel.report"
@@ -301,7 +332,10 @@ class TRILEVEL_PT_surface(bpy.types.Panel):
             layout.label(text="Select a surface to edit its settings")
             return
         s = obj.trilevel
-        layout.prop(s, "filepath")
+        row = layout.row(align=True)
+        row.prop(s, "filepath")
+        if not frames.is_sequence(s.filepath):
+            row.operator(TRILEVEL_OT_use_sequence.bl_idname, text="", icon='SEQUENCE')
         layout.prop(s, "radius")
         layout.prop(s, "mode")
         if s.mode == 'UNIFORM':
@@ -335,7 +369,7 @@ def menu_add(self, context):
 
 
 classes = (TrilevelPreferences, TrilevelSettings, TRILEVEL_OT_add_surface, TRILEVEL_OT_build_frames,
-           TRILEVEL_OT_clear_cache, TRILEVEL_OT_report, TRILEVEL_PT_surface)
+           TRILEVEL_OT_clear_cache, TRILEVEL_OT_use_sequence, TRILEVEL_OT_report, TRILEVEL_PT_surface)
 
 
 def register():
