@@ -276,8 +276,9 @@ void write_vtk_xml(AtomicWriter& out, const std::string& path, const Mesh& mesh,
     if (!mesh.normals.empty())
         write_xml_array(out, path, "type=\"Float32\" Name=\"Normals\" NumberOfComponents=\"3\"", mesh.normals.data(),
                         4 * mesh.normals.size());
-    for (const auto& a : mesh.attributes)
-        write_xml_array(out, path, "type=\"Float32\" Name=\"" + xml_escaped(a.name) + "\" NumberOfComponents=\"" + std::to_string(a.components) + "\"",
+    for (const auto& a : mesh.attributes)  // NumberOfComponents only for vectors, as VTK writes them
+        write_xml_array(out, path, "type=\"Float32\" Name=\"" + xml_escaped(a.name) + "\"" +
+                                       (a.components == 3 ? " NumberOfComponents=\"3\"" : ""),
                         a.values.data(), 4 * a.values.size());
     out.write("      </PointData>\n      <Points>\n");
     write_xml_array(out, path, "type=\"Float32\" Name=\"Points\" NumberOfComponents=\"3\"", mesh.positions.data(),
