@@ -30,8 +30,8 @@ def arguments():
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
     p = argparse.ArgumentParser()
     p.add_argument("--cli", required=True, help="the trilevel binary")
-    p.add_argument("--module-dir", default="", help="directory of the trilevel module (else TRILEVEL_PYTHON_PATH or "
-                                                      "Blender's Python)")
+    p.add_argument("--module-dir", default="", help="directory of the trilevel module, set as the add-on's "
+                                                      "preference (else TRILEVEL_PYTHON_PATH or Blender's Python)")
     p.add_argument("--work", required=True, help="scratch directory (emptied)")
     return p.parse_args(argv)
 
@@ -98,8 +98,6 @@ def attribute_values(mesh, name, kind):
 
 def main():
     args = arguments()
-    if args.module_dir:
-        os.environ["TRILEVEL_PYTHON_PATH"] = os.path.abspath(args.module_dir)
     sys.path.insert(0, os.path.dirname(HERE))  # the repository's blender/: the add-on package
     import bpy  # first: the bpy wheel puts Blender's own modules (addon_utils) on sys.path
     import addon_utils
@@ -108,8 +106,10 @@ def main():
     print(f"Blender {bpy.app.version_string}, Python {sys.version.split()[0]}, numpy {np.__version__}")
     mod = addon_utils.enable("trilevel_blender", default_set=True, handle_error=None)
     check(mod is not None, "the add-on did not enable")
-    from trilevel_blender import module_loader, surface
-    trilevel = module_loader.load()  # as the add-on finds it (TRILEVEL_PYTHON_PATH here)
+    from trilevel_blender import module_loader, surface, ui
+    if args.module_dir:  # the add-on preference a user sets (else TRILEVEL_PYTHON_PATH, Blender's Python)
+        bpy.context.preferences.addons["trilevel_blender"].preferences.python_path = os.path.abspath(args.module_dir)
+    trilevel = ui.load_module()  # as the add-on finds it
     print(f"trilevel {trilevel.__version__} from {trilevel.__file__}")
 
     work = os.path.abspath(args.work)
