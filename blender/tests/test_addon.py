@@ -180,8 +180,16 @@ def main():
         scene.frame_set(f)
         check(len(blender_mesh(obj)[1]) == len(expected[f][1]), f"cached frame {f}: wrong mesh")
     check(len(builds) == FRAMES, f"cached frames were rebuilt: {builds[FRAMES:]}")
-    check(surface.cached_count(obj.trilevel.cache_id) == FRAMES, "cache size")
+    check(surface.cached_count(ui.cache_key(obj)) == FRAMES, "cache size")
     print(f"cache: {FRAMES} frames built once, revisited without rebuilding")
+    # Rebuild drops the cache and builds the shown frame; Build All Frames fills the scene range.
+    check(bpy.ops.trilevel.clear_cache() == {'FINISHED'}, "clear_cache")
+    check(surface.cached_count(ui.cache_key(obj)) == 1 and len(builds) == FRAMES + 1, "Rebuild did not rebuild")
+    scene.frame_start, scene.frame_end = 0, FRAMES + 2  # two frames past the files: empty meshes
+    check(bpy.ops.trilevel.build_frames() == {'FINISHED'}, "build_frames")
+    check(surface.cached_count(ui.cache_key(obj)) == FRAMES and len(builds) == 2 * FRAMES,
+          f"Build All Frames: {surface.cached_count(ui.cache_key(obj))} cached, {len(builds)} builds")
+    del builds[FRAMES:]
 
     # Frame offset: scene frame N shows file N - offset; frames outside the files give an empty mesh.
     obj.trilevel.frame_offset = 10

@@ -28,6 +28,12 @@ def supported_keywords():
         return set()
 
 
+def cache_key(obj):
+    """The object's entry in the mesh cache: its cache id (kept in the .blend) and its name, so
+    that a duplicate (same id, new name) gets a cache of its own."""
+    return f"{obj.trilevel.cache_id}/{obj.name}"
+
+
 def _settings_changed(self, context):
     """A setting of a surface changed: show the current frame with it (cached if it was before)."""
     obj = self.id_data
@@ -138,7 +144,7 @@ def update_object(scene, obj, frame=None):
             return ""
         key = surface.settings_key(settings, module_loader.reconstruct_keywords(module))
         prefs = preferences()
-        mesh, _ = surface.cached_frame(settings.cache_id, key, path, settings, module,
+        mesh, _ = surface.cached_frame(cache_key(obj), key, path, settings, module,
                                        prefs.cache_frames if prefs else 100)
         surface.fill_mesh(obj.data, mesh)
         settings.shown_file = path
@@ -263,7 +269,7 @@ class TRILEVEL_OT_build_frames(bpy.types.Operator):
         if failed:
             self.report({'ERROR'}, failed)
             return {'CANCELLED'}
-        self.report({'INFO'}, f"{surface.cached_count(obj.trilevel.cache_id)} frames cached")
+        self.report({'INFO'}, f"{surface.cached_count(cache_key(obj))} frames cached")
         return {'FINISHED'}
 
 
@@ -277,7 +283,7 @@ class TRILEVEL_OT_clear_cache(bpy.types.Operator):
         return context.object is not None and context.object.trilevel.enabled
 
     def execute(self, context):
-        surface.clear_cache(context.object.trilevel.cache_id)
+        surface.clear_cache(cache_key(context.object))
         error = update_object(context.scene, context.object)
         if error:
             self.report({'ERROR'}, error)
@@ -355,7 +361,7 @@ class TRILEVEL_PT_surface(bpy.types.Panel):
         row = layout.row()
         row.operator(TRILEVEL_OT_build_frames.bl_idname)
         row.operator(TRILEVEL_OT_clear_cache.bl_idname)
-        layout.label(text=f"{surface.cached_count(s.cache_id)} frames cached")
+        layout.label(text=f"{surface.cached_count(cache_key(obj))} frames cached")
         if s.last_error:
             col = layout.column()
             col.alert = True
