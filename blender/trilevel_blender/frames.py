@@ -15,8 +15,8 @@ def list_frames(pattern):
     """{frame number: path} of the files matching `pattern` (a `{}` sequence).
 
     Raises ValueError with a one-line message when `{}` is in a directory name or the directory
-    does not exist. When two files give the same number (7 and 0007) the shorter name wins, as
-    the CLI orders them.
+    does not exist. When two files give the same number (7 and 0007) the shorter name wins
+    (the CLI would reconstruct both).
     """
     directory, name = os.path.split(pattern)
     if "{}" not in name:

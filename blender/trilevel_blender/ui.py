@@ -92,7 +92,7 @@ class TrilevelSettings(bpy.types.PropertyGroup):
     attributes: bpy.props.StringProperty(
         name="Attributes", default="", update=_settings_changed,
         description="Particle attributes to interpolate at the vertices, comma separated (e.g. velocity, density); "
-                    "each becomes a point attribute of its name, `velocity` the one motion blur reads")
+                    "each becomes a point attribute of its name; Cycles motion-blurs by `velocity` (units per second)")
     smooth: bpy.props.BoolProperty(
         name="Smooth", default=False, update=_settings_changed,
         description="Smooth the mesh for rendering (needs a trilevel module with the smooth option)")
