@@ -223,7 +223,7 @@ int run_reconstruct(const ReconstructArgs& a) {
         throw UsageError("--stats must contain '{}' when the input is a frame sequence");
     if (!sequence && (!a.start.empty() || !a.end.empty() || a.skip_existing))
         throw UsageError("--start, --end and --skip-existing need a frame sequence ('{}' in the input)");
-    check_output(trilevel::cli::frame_path(a.output, "0"), {"ply", "obj", "vtk"}, "mesh");
+    check_output(trilevel::cli::frame_path(a.output, "0"), {"ply", "obj", "vtk", "vtp", "vtu"}, "mesh");
     if (!a.stats.empty()) check_output(trilevel::cli::frame_path(a.stats, "0"), {"json"}, "statistics");
     if (!sequence) {
         std::optional<trilevel::Reconstructor> rec;
@@ -419,7 +419,7 @@ int run(int argc, char** argv) {
     ReconstructArgs ra;
     auto* rec = app.add_subcommand("reconstruct", "Reconstructs a closed triangle mesh from a particle file");
     rec->add_option("input", ra.input, "Particle file (.vtk, .vtu, .bgeo, .ply, .xyz); '{}' in the name: frame sequence")->required();
-    rec->add_option("-o,--output", ra.output, "Mesh file (.ply, .obj, .vtk); '{}' is replaced by the frame number")->required();
+    rec->add_option("-o,--output", ra.output, "Mesh file (.ply, .obj, .vtk, .vtp, .vtu); '{}' is replaced by the frame number")->required();
     rec->add_option("-r,--radius", ra.radius, "Particle radius r in world units")->required();
     rec->add_option("--kernel-radius", ra.kernel_radius, "Kernel support in multiples of r (default 4)");
     rec->add_option("--mode", ra.mode, "adaptive (default) or uniform");

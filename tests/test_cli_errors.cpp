@@ -65,7 +65,8 @@ TEST_CASE("CLI: reconstruct rejects bad inputs and parameters before writing any
     require_cli_error(tmp, base, out, "radius");
     require_cli_error(tmp, "reconstruct '" + in + "' -o '" + tmp.file("missing/out.ply") + "' -r 0.025", tmp.file("missing/out.ply"),
                       "does not exist");
-    require_cli_error(tmp, "reconstruct '" + in + "' -o '" + tmp.file("out.stl") + "' -r 0.025", tmp.file("out.stl"), "extension");
+    require_cli_error(tmp, "reconstruct '" + in + "' -o '" + tmp.file("out.stl") + "' -r 0.025", tmp.file("out.stl"),
+                      "unknown mesh extension 'stl', expected .ply, .obj, .vtk, .vtp, .vtu");
     require_cli_error(tmp, base + "-r 0.025 --stats '" + tmp.file("missing/s.json") + "'", out, "does not exist");
 }
 

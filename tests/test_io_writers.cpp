@@ -157,3 +157,68 @@ TEST_CASE("writes are atomic: clear errors, no partial or temporary files", "[io
     trilevel::write_particles(tmp.file("p.xyz"), one);
     REQUIRE(std::filesystem::file_size(tmp.path / "p.xyz") == 12);
 }
+
+TEST_CASE("VTK XML meshes (.vtp, .vtu) round-trip points, levels, normals and attributes through the VTU reader", "[io]") {
+    // 120 000 vertices: the points (1.44 MB) and the connectivity span more than one zlib block of 1 MiB.
+    trilevel::Mesh m;
+    const std::size_t nv = 120000;
+    for (std::size_t v = 0; v < nv; ++v)
+        for (int k = 0; k < 3; ++k) m.positions.push_back(std::sin(float(3 * v + k)) * 10.0f + float(k));
+    for (std::size_t t = 0; t + 2 < nv; t += 2) m.triangles.insert(m.triangles.end(), {std::uint32_t(t), std::uint32_t(t + 1), std::uint32_t(t + 2)});
+    m.triangle_kind.assign(m.triangle_count(), trilevel::TriangleKind::Level2);
+    for (std::size_t v = 0; v < nv; ++v) m.vertex_level.push_back(v % 3 ? 2 : 3);
+    for (std::size_t v = 0; v < nv; ++v) {
+        const float a = float(v) * 0.001f;
+        m.normals.insert(m.normals.end(), {std::cos(a), std::sin(a), 0.0f});
+    }
+    m.attributes.push_back({"density", 1, {}});
+    m.attributes.push_back({"velocity", 3, {}});
+    for (std::size_t v = 0; v < nv; ++v) m.attributes[0].values.push_back(1000.0f + float(v) * 1e-3f);
+    for (std::size_t v = 0; v < 3 * nv; ++v) m.attributes[1].values.push_back(std::cos(float(v)) * 2.5f);
+
+    TempDir tmp;
+    trilevel::ReadOptions with_data;
+    with_data.attributes = {"level", "Normals", "density", "velocity"};
+    for (const std::string ext : {"vtu", "vtp"}) {
+        INFO(ext);
+        const std::string f = tmp.file("m." + ext);
+        trilevel::write_mesh(f, m);
+        std::ifstream in(f, std::ios::binary);
+        const std::string all((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        const std::string triangles = std::to_string(m.triangle_count());
+        if (ext == "vtu") {
+            CHECK(all.find("<VTKFile type=\"UnstructuredGrid\"") != std::string::npos);
+            CHECK(all.find("NumberOfPoints=\"120000\" NumberOfCells=\"" + triangles + "\"") != std::string::npos);
+            CHECK(all.find("Name=\"types\"") != std::string::npos);
+        } else {
+            CHECK(all.find("<VTKFile type=\"PolyData\"") != std::string::npos);
+            CHECK(all.find("NumberOfStrips=\"0\" NumberOfPolys=\"" + triangles + "\"") != std::string::npos);
+            CHECK(all.find("<Polys>") != std::string::npos);
+        }
+        CHECK(all.find("<PointData Scalars=\"level\" Normals=\"Normals\">") != std::string::npos);
+        // The particle reader takes the Points and PointData of any VTK XML piece: read the
+        // PolyData under a .vtu name.
+        const std::string as_vtu = tmp.file("read." + ext + ".vtu");
+        std::filesystem::copy_file(f, as_vtu);
+        const auto r = trilevel::read_particles(as_vtu, with_data);
+        REQUIRE(same_bits(r.positions, m.positions));
+        REQUIRE(r.attributes.size() == 4);
+        std::vector<float> levels(m.vertex_level.begin(), m.vertex_level.end());
+        CHECK((r.attributes[0].components == 1 && r.attributes[0].values == levels));
+        CHECK((r.attributes[1].components == 3 && same_bits(r.attributes[1].values, m.normals)));
+        CHECK((r.attributes[2].components == 1 && same_bits(r.attributes[2].values, m.attributes[0].values)));
+        CHECK((r.attributes[3].components == 3 && same_bits(r.attributes[3].values, m.attributes[1].values)));
+    }
+    // Without levels, normals or attributes: the bare geometry, and no PointData attributes.
+    trilevel::Mesh bare;
+    bare.positions = m.positions;
+    bare.triangles = m.triangles;
+    trilevel::write_mesh(tmp.file("bare.vtu"), bare);
+    REQUIRE(same_bits(trilevel::read_particles(tmp.file("bare.vtu")).positions, m.positions));
+    // An attribute named like the normals' array is refused, and nothing is left behind.
+    auto clash = m;
+    clash.attributes[0].name = "Normals";
+    REQUIRE_THROWS_WITH(trilevel::write_mesh(tmp.file("clash.vtp"), clash),
+                        Catch::Contains("clash.vtp") && Catch::Contains("vertex attribute 'Normals' collides"));
+    REQUIRE(!std::filesystem::exists(tmp.path / "clash.vtp"));
+}

@@ -47,9 +47,12 @@ struct MeshWriteOptions {
     bool color_levels = false;  ///< PLY: vertex colours, green = level 2, blue = level 3
 };
 
-/// Writes a mesh by extension: .ply (binary little-endian), .obj, .vtk (legacy binary POLYDATA).
-/// Normals: PLY nx ny nz, VTK NORMALS, OBJ vn. Attributes: PLY float properties `name` or
-/// `name_x name_y name_z`, VTK SCALARS or VECTORS; OBJ cannot hold them and leaves them out.
+/// Writes a mesh by extension: .ply (binary little-endian), .obj, .vtk (legacy binary POLYDATA),
+/// .vtp (VTK XML PolyData) or .vtu (VTK XML UnstructuredGrid of triangles; the one meshio reads),
+/// both with zlib-compressed base64 arrays and the levels as UInt8 point data `level`.
+/// Normals: PLY nx ny nz, VTK NORMALS, VTK XML point data `Normals`, OBJ vn. Attributes: PLY
+/// float properties `name` or `name_x name_y name_z`, VTK SCALARS or VECTORS, VTK XML Float32
+/// point data; OBJ cannot hold them and leaves them out.
 /// An attribute name with white space or one that collides with another property is an Error.
 /// Written to a temporary file in the target directory and renamed; never leaves a partial file.
 void write_mesh(const std::string& path, const Mesh& mesh, const MeshWriteOptions& options = {});

@@ -1,10 +1,14 @@
 // write_mesh: .ply (binary LE, optional per-vertex level and level colours), .obj, .vtk
-// (legacy BINARY POLYDATA with a `level` point scalar). All writes are atomic and buffered.
-// Normals: PLY nx ny nz, VTK NORMALS, OBJ vn. Attributes: PLY float properties `name` or
-// `name_x name_y name_z`, VTK SCALARS / VECTORS; OBJ has no place for them and leaves them out.
+// (legacy BINARY POLYDATA with a `level` point scalar), .vtp / .vtu (VTK XML PolyData /
+// UnstructuredGrid, zlib-compressed base64 arrays). All writes are atomic and buffered.
+// Normals: PLY nx ny nz, VTK NORMALS, XML point data `Normals` (the active normals), OBJ vn.
+// Attributes: PLY float properties `name` or `name_x name_y name_z`, VTK SCALARS / VECTORS, XML
+// point data arrays; OBJ has no place for them and leaves them out.
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+
+#include <zlib.h>
 
 #include "io/io_common.hpp"
 #include "trilevel/io.hpp"
@@ -183,19 +187,131 @@ void write_vtk(AtomicWriter& out, const std::string& path, const Mesh& mesh) {
     }
 }
 
+/// Base64 (RFC 4648, padded) of `n` bytes, appended to `out`.
+void append_base64(std::string& out, const unsigned char* p, std::size_t n) {
+    static const char table[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    out.reserve(out.size() + (n + 2) / 3 * 4);
+    std::size_t i = 0;
+    for (; i + 3 <= n; i += 3) {
+        const std::uint32_t v = (std::uint32_t(p[i]) << 16) | (std::uint32_t(p[i + 1]) << 8) | p[i + 2];
+        for (int k = 3; k >= 0; --k) out += table[(v >> (6 * k)) & 63];
+    }
+    if (i < n) {
+        const std::uint32_t v = (std::uint32_t(p[i]) << 16) | (i + 1 < n ? std::uint32_t(p[i + 1]) << 8 : 0);
+        out += table[(v >> 18) & 63];
+        out += table[(v >> 12) & 63];
+        out += i + 1 < n ? table[(v >> 6) & 63] : '=';
+        out += '=';
+    }
+}
+
+/// One DataArray in VTK's compressed inline form (format="binary", header_type UInt64,
+/// vtkZLibDataCompressor): the base64 of the header [blocks, block size, last block size,
+/// compressed size of each block], then the base64 of the compressed blocks, encoded apart as
+/// VTK writes and reads them. Blocks of 1 MiB compressed at zlib's fastest level: on a mesh of
+/// 10,627 vertices (points, normals, connectivity, offsets) level 6 took 4.2 times as long for
+/// 2% fewer bytes (both 31% of the raw size).
+void write_xml_array(AtomicWriter& out, const std::string& path, const std::string& attributes, const void* data,
+                     std::size_t bytes) {
+    constexpr std::size_t kBlock = std::size_t(1) << 20;
+    const std::size_t blocks = (bytes + kBlock - 1) / kBlock;
+    std::vector<std::uint64_t> header = {blocks, kBlock, blocks == 0 ? 0 : bytes - (blocks - 1) * kBlock};
+    std::string body;
+    std::vector<unsigned char> packed(compressBound(kBlock));
+    const auto* in = static_cast<const unsigned char*>(data);
+    for (std::size_t b = 0; b < blocks; ++b) {
+        const std::size_t n = std::min(kBlock, bytes - b * kBlock);
+        uLongf size = static_cast<uLongf>(packed.size());
+        if (compress2(packed.data(), &size, in + b * kBlock, static_cast<uLong>(n), Z_BEST_SPEED) != Z_OK)
+            fail(path, "zlib could not compress a data array");
+        header.push_back(size);
+        body.append(reinterpret_cast<const char*>(packed.data()), size);
+    }
+    std::string text = "        <DataArray " + attributes + " format=\"binary\">\n          ";
+    append_base64(text, reinterpret_cast<const unsigned char*>(header.data()), header.size() * sizeof(std::uint64_t));
+    append_base64(text, reinterpret_cast<const unsigned char*>(body.data()), body.size());
+    text += "\n        </DataArray>\n";
+    out.write(text);
+}
+
+/// `name` with the five characters XML reserves escaped, for an attribute value.
+std::string xml_escaped(const std::string& name) {
+    std::string out;
+    for (char c : name) {
+        if (c == '&') out += "&amp;";
+        else if (c == '<') out += "&lt;";
+        else if (c == '>') out += "&gt;";
+        else if (c == '"') out += "&quot;";
+        else if (c == '\'') out += "&apos;";
+        else out += c;
+    }
+    return out;
+}
+
+/// VTK XML (header_type UInt64, little-endian: the byte order of every platform we build on,
+/// checked below): PolyData with the triangles as Polys (`poly`), else an UnstructuredGrid of
+/// triangle cells (VTK_TRIANGLE = 5; meshio reads this one, it has no PolyData reader). Point data:
+/// `level` (UInt8, the active scalars), `Normals` (the active normals), then the attributes as
+/// Float32 arrays of 1 or 3 components under their own names.
+void write_vtk_xml(AtomicWriter& out, const std::string& path, const Mesh& mesh, bool poly) {
+    static_assert(sizeof(std::uint64_t) == 8 && sizeof(float) == 4);
+    const std::uint16_t probe = 1;
+    if (*reinterpret_cast<const unsigned char*>(&probe) != 1) fail(path, "VTK XML output needs a little-endian host");
+    const std::size_t nv = mesh.vertex_count(), nt = mesh.triangle_count();
+    for (const auto& a : mesh.attributes)
+        if (a.name == "Normals" && !mesh.normals.empty())
+            fail(path, "vertex attribute 'Normals' collides with the normals of a VTK XML file");
+    const std::string type = poly ? "PolyData" : "UnstructuredGrid";
+    std::string head = "<?xml version=\"1.0\"?>\n<VTKFile type=\"" + type +
+                       "\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\" "
+                       "compressor=\"vtkZLibDataCompressor\">\n  <" + type + ">\n    <Piece NumberOfPoints=\"" +
+                       std::to_string(nv) + "\" " +
+                       (poly ? "NumberOfVerts=\"0\" NumberOfLines=\"0\" NumberOfStrips=\"0\" NumberOfPolys=\""
+                             : "NumberOfCells=\"") + std::to_string(nt) + "\">\n      <PointData";
+    if (!mesh.vertex_level.empty()) head += " Scalars=\"level\"";
+    if (!mesh.normals.empty()) head += " Normals=\"Normals\"";
+    head += ">\n";
+    out.write(head);
+    if (!mesh.vertex_level.empty())
+        write_xml_array(out, path, "type=\"UInt8\" Name=\"level\"", mesh.vertex_level.data(), nv);
+    if (!mesh.normals.empty())
+        write_xml_array(out, path, "type=\"Float32\" Name=\"Normals\" NumberOfComponents=\"3\"", mesh.normals.data(),
+                        4 * mesh.normals.size());
+    for (const auto& a : mesh.attributes)  // NumberOfComponents only for vectors, as VTK writes them
+        write_xml_array(out, path, "type=\"Float32\" Name=\"" + xml_escaped(a.name) + "\"" +
+                                       (a.components == 3 ? " NumberOfComponents=\"3\"" : ""),
+                        a.values.data(), 4 * a.values.size());
+    out.write("      </PointData>\n      <Points>\n");
+    write_xml_array(out, path, "type=\"Float32\" Name=\"Points\" NumberOfComponents=\"3\"", mesh.positions.data(),
+                    4 * mesh.positions.size());
+    out.write(poly ? "      </Points>\n      <Polys>\n" : "      </Points>\n      <Cells>\n");
+    std::vector<std::int64_t> ints(mesh.triangles.begin(), mesh.triangles.end());
+    write_xml_array(out, path, "type=\"Int64\" Name=\"connectivity\"", ints.data(), 8 * ints.size());
+    ints.resize(nt);
+    for (std::size_t t = 0; t < nt; ++t) ints[t] = std::int64_t(3 * (t + 1));
+    write_xml_array(out, path, "type=\"Int64\" Name=\"offsets\"", ints.data(), 8 * ints.size());
+    if (!poly) {
+        const std::vector<std::uint8_t> types(nt, 5);
+        write_xml_array(out, path, "type=\"UInt8\" Name=\"types\"", types.data(), nt);
+    }
+    out.write(poly ? "      </Polys>\n    </Piece>\n  </PolyData>\n</VTKFile>\n"
+                   : "      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n");
+}
+
 }  // namespace
 }  // namespace io
 
 void write_mesh(const std::string& path, const Mesh& mesh, const MeshWriteOptions& options) {
     using namespace io;
     const std::string ext = extension_of(path);
-    if (ext != "ply" && ext != "obj" && ext != "vtk")
-        fail(path, "unknown mesh output extension '" + ext + "', expected .ply, .obj or .vtk");
+    if (ext != "ply" && ext != "obj" && ext != "vtk" && ext != "vtp" && ext != "vtu")
+        fail(path, "unknown mesh output extension '" + ext + "', expected .ply, .obj, .vtk, .vtp or .vtu");
     check_mesh(path, mesh);
     AtomicWriter out(path);
     if (ext == "ply") write_ply(out, path, mesh, options);
     else if (ext == "obj") write_obj(out, mesh);
-    else write_vtk(out, path, mesh);
+    else if (ext == "vtk") write_vtk(out, path, mesh);
+    else write_vtk_xml(out, path, mesh, ext == "vtp");
     out.commit();
 }
 
