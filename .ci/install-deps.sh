@@ -8,4 +8,4 @@ $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends \
   g++ cmake make pocl-opencl-icd ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers \
   libglm-dev catch2 libcli11-dev nlohmann-json3-dev zlib1g-dev libdeflate-dev pkg-config libtbb-dev \
-  python3-numpy python3-scipy python3-dev pybind11-dev python3-venv python3-pytest >/dev/null
+  python3-numpy python3-scipy python3-dev pybind11-dev python3-venv python3-pytest python3-distributed >/dev/null
