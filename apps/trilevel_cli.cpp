@@ -14,6 +14,7 @@
 #include <new>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <unistd.h>
@@ -155,6 +156,19 @@ double total_ms(const trilevel::Stats& s, double wall_ms) {
     return wall_ms;
 }
 
+/// A cold start compiles the OpenCL kernels, seconds on PoCL: say so once, so that the wait is not
+/// taken for a hang (later starts load them from the program cache).
+void say_compiling(const trilevel::KernelCompileNotice& n) {
+    static bool said = false;
+    if (std::exchange(said, true)) return;
+    if (n.cache_dir.empty())
+        std::fprintf(stderr, "trilevel: compiling OpenCL kernels for %s (on every start: caching is off, see TRILEVEL_CACHE_DIR)\n",
+                     n.device.c_str());
+    else
+        std::fprintf(stderr, "trilevel: compiling OpenCL kernels for %s (once; cached in %s)\n", n.device.c_str(),
+                     n.cache_dir.c_str());
+}
+
 /// One input file -> one mesh (and stats) file. Prints the summary unless quiet or `result` is
 /// given, which receives a one-line summary and the level changes instead (frame sequences).
 /// `rec` is created with the first input: OpenCL starts (device, cached kernels) on this thread
@@ -172,7 +186,7 @@ void reconstruct_file(std::optional<trilevel::Reconstructor>& rec, const trileve
     std::exception_ptr start_failure;
     if (!rec) {  // compiled kernels and buffers are reused across frames
         try {
-            rec.emplace(a.device);
+            rec.emplace(a.device, say_compiling);
         } catch (...) {
             start_failure = std::current_exception();
         }

@@ -1,4 +1,5 @@
-// The `trilevel` Python module: numpy arrays in and out, the GIL released while reconstructing.
+// The `trilevel` Python module (compiled as trilevel._trilevel, re-exported by the package's
+// __init__.py; typed in _trilevel.pyi): numpy arrays in and out, the GIL released while reconstructing.
 //
 //   import trilevel
 //   vertices, triangles, stats = trilevel.reconstruct(positions, particle_radius=0.025)
@@ -251,7 +252,8 @@ when attributes is given). Raises trilevel.Error with a one-line message on bad 
 
 }  // namespace
 
-PYBIND11_MODULE(trilevel, m) {
+// Imported as `trilevel` (python/trilevel/__init__.py re-exports it).
+PYBIND11_MODULE(_trilevel, m) {
     m.doc() = "trilevel: adaptive surface reconstruction of SPH particle sets (3-level grids, OpenCL)";
     m.attr("__version__") = TRILEVEL_VERSION;
     py::register_exception<trilevel::Error>(m, "Error", PyExc_RuntimeError);

@@ -1,3 +1,4 @@
+#include <chrono>
 #include "opencl_runtime.hpp"
 
 #include <algorithm>
@@ -123,7 +124,8 @@ std::vector<DeviceInfo> list_devices() try {
     throw Error(std::string("cannot list OpenCL devices: ") + e.what() + " returned " + cl_error_name(e.err()));
 }
 
-OpenCLRuntime::OpenCLRuntime(int device) try {
+OpenCLRuntime::OpenCLRuntime(int device, std::function<void(const KernelCompileNotice&)> on_compile) try
+    : on_compile_(std::move(on_compile)) {
     std::vector<std::string> platforms;
     auto devices = all_devices(&platforms);
     int idx = choose_device(device, devices);
@@ -170,6 +172,10 @@ std::optional<cl::Program> OpenCLRuntime::build_from_binary(std::optional<std::v
 }
 
 cl::Program OpenCLRuntime::build_program(int bits) {
+    const auto start = std::chrono::steady_clock::now();
+    const auto add_time = [&](double& total) {
+        total = std::max(total, 0.0) + std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    };
     std::string source;
     for (const char* f : kKernelFiles) source += std::string(embedded_kernel_source(f)) + "\n";
     const std::string options = build_options(max_candidates_, serial_gather()) + " -DFINE_KEY_BITS=" + std::to_string(bits);
@@ -185,9 +191,11 @@ cl::Program OpenCLRuntime::build_program(int bits) {
         path = program_cache_path(dir, name);
         if (auto cached = build_from_binary(load_program_binary(path, name), options)) {
             if (bits == 32) program_from_cache_ = true;
+            add_time(build_times_.loaded_ms);
             return *cached;
         }
     }
+    if (on_compile_) on_compile_({info_.name, dir});  // seconds follow: say why
     cl::Program program(context_, source);
     try {
         program.build(std::vector<cl::Device>{device_}, options.c_str());
@@ -197,10 +205,12 @@ cl::Program OpenCLRuntime::build_program(int bits) {
             if (c == '\n') c = ' ';
         throw Error("OpenCL kernel build failed on '" + info_.name + "': " + log);
     }
-    if (path.empty()) return program;
-    const auto binaries = program.getInfo<CL_PROGRAM_BINARIES>();
-    if (binaries.size() == 1 && !binaries[0].empty() && store_program_binary(path, name, binaries[0]))
-        prune_program_cache(dir, program_cache_max_bytes(), name);
+    if (!path.empty()) {
+        const auto binaries = program.getInfo<CL_PROGRAM_BINARIES>();
+        if (binaries.size() == 1 && !binaries[0].empty() && store_program_binary(path, name, binaries[0]))
+            prune_program_cache(dir, program_cache_max_bytes(), name);
+    }
+    add_time(build_times_.compiled_ms);
     return program;
 }
 

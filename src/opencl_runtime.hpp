@@ -3,9 +3,11 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <CL/opencl.hpp>
@@ -18,7 +20,8 @@ namespace trilevel {
 class OpenCLRuntime {
 public:
     /// device < 0: TRILEVEL_DEVICE, else the first GPU, else the first CPU device.
-    explicit OpenCLRuntime(int device);
+    /// on_compile: called before a program is compiled from source (Reconstructor's constructor).
+    explicit OpenCLRuntime(int device, std::function<void(const KernelCompileNotice&)> on_compile = {});
 
     const DeviceInfo& info() const { return info_; }
     cl::Context& context() { return context_; }
@@ -84,6 +87,12 @@ public:
     void inject_fault(const std::string& stage) { fault_stage_ = stage; }
     /// Whether the program came from the on-disk binary cache (program_cache.hpp), not from source.
     bool program_from_cache() const { return program_from_cache_; }
+    /// Wall milliseconds spent building programs since the last call: compiled from source, and
+    /// loaded from the cache (each negative when none was). For Stats::time_ms.
+    struct ProgramBuildTimes {
+        double compiled_ms = -1, loaded_ms = -1;
+    };
+    ProgramBuildTimes take_program_build_times() { return std::exchange(build_times_, ProgramBuildTimes{}); }
     /// After a failed reconstruction: waits for what is still queued (ignoring errors) and drops the
     /// pending events and timings, and releases the pooled buffers, so the next reconstruction
     /// starts from a clean queue and fresh buffers.
@@ -111,6 +120,8 @@ private:
     std::size_t work_group_ = kDefaultWorkGroup;
     std::size_t max_candidates_ = 2048;
     bool program_from_cache_ = false;
+    std::function<void(const KernelCompileNotice&)> on_compile_;
+    ProgramBuildTimes build_times_;
     BufferPool pool_;
     std::uint64_t budget_ = 0, peak_lent_ = 0;
     std::uint64_t ram_room_ = 0;      ///< CPU devices: MemAvailable at reset_budget (0: no check)

@@ -310,7 +310,7 @@ bool same_levels_frame(const Params& a, const Params& b) {
 }  // namespace
 
 struct Reconstructor::Impl {
-    explicit Impl(int device) : rt(device) {}
+    Impl(int device, std::function<void(const KernelCompileNotice&)> on_compile) : rt(device, std::move(on_compile)) {}
     OpenCLRuntime rt;
     LevelHistory history;  ///< levels of the previous frame (adaptive mode)
     /// Positions handed over by reconstruct(std::vector<float>&&), freed once run() has uploaded
@@ -559,7 +559,8 @@ void Reconstructor::Impl::remember_levels(const std::vector<CoarseCell>& cells, 
     history_params = p;
 }
 
-Reconstructor::Reconstructor(int device) : impl_(std::make_unique<Impl>(device)) {}
+Reconstructor::Reconstructor(int device, std::function<void(const KernelCompileNotice&)> on_compile)
+    : impl_(std::make_unique<Impl>(device, std::move(on_compile))) {}
 Reconstructor::~Reconstructor() = default;
 Reconstructor::Reconstructor(Reconstructor&&) noexcept = default;
 Reconstructor& Reconstructor::operator=(Reconstructor&&) noexcept = default;
@@ -595,6 +596,7 @@ Mesh Reconstructor::reconstruct(const float* xyz, std::size_t count, const Param
     s = Stats{};
     auto t0 = Clock::now();
     OpenCLRuntime& rt = impl_->rt;
+    const OpenCLRuntime::ProgramBuildTimes built_before = rt.take_program_build_times();  // the constructor's
     const char* fault = std::getenv("TRILEVEL_FAULT");  // test hook: opencl_runtime.hpp, inject_fault
     rt.inject_fault(fault ? fault : "");
     // Whatever fails, the runtime is reset (queue drained, events dropped) so that the next frame
@@ -605,6 +607,13 @@ Mesh Reconstructor::reconstruct(const float* xyz, std::size_t count, const Param
         StageTimer timer(s);  // normals and attributes: world units, after any scaling or split
         add_vertex_data(m, xyz, count, params, attributes, timer);
         s.time_ms.emplace_back("total", std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+        // Program builds first: the constructor's, and any on demand during this frame.
+        const OpenCLRuntime::ProgramBuildTimes during = rt.take_program_build_times();
+        const auto sum = [](double a, double b) { return a < 0 ? b : b < 0 ? a : a + b; };
+        const double compiled = sum(built_before.compiled_ms, during.compiled_ms);
+        const double loaded = sum(built_before.loaded_ms, during.loaded_ms);
+        if (loaded >= 0) s.time_ms.insert(s.time_ms.begin(), {"kernel_load", loaded});
+        if (compiled >= 0) s.time_ms.insert(s.time_ms.begin(), {"kernel_compile", compiled});
         return m;
     } catch (const cl::Error& e) {
         const std::string stage = rt.stage().empty() ? std::string("setup") : rt.stage();

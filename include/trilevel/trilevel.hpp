@@ -9,6 +9,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -124,7 +125,12 @@ struct Stats {
     std::size_t triangles_level3 = 0;       ///< TriangleKind::Level3
     std::size_t triangles_patch = 0;        ///< TriangleKind::Patch (crack closing, DESIGN §7)
     std::size_t crack_vertices_collapsed = 0; ///< inner crack crossings merged away (CrackClosing::Collapse)
-    std::vector<std::pair<std::string, double>> time_ms;  ///< milliseconds (wall) per stage in pipeline order, then "total"
+    /// Milliseconds (wall) per stage in pipeline order, then "total". First, when the Reconstructor
+    /// built OpenCL programs since the previous call's statistics: "kernel_compile" (compiled from
+    /// source: the first run on a device, seconds) and/or "kernel_load" (loaded from the on-disk
+    /// program cache, milliseconds). Mostly spent in the constructor, so not part of "total"; a
+    /// program built on demand during the call (64-bit fine keys) is in its stage's time too.
+    std::vector<std::pair<std::string, double>> time_ms;
     std::vector<std::pair<std::string, double>> kernel_ms; ///< milliseconds of OpenCL profiling time per kernel
     std::uint64_t peak_memory_bytes = 0;   ///< bytes; process peak resident memory after the run
     /// Bytes of device buffers the run held at once at its peak (the largest of a split domain's
@@ -166,10 +172,23 @@ std::vector<DeviceInfo> list_devices();
 
 /// Reconstructs surfaces on one OpenCL device; keeps compiled kernels and buffers across calls.
 /// Not thread-safe: use one Reconstructor per thread.
+/// Said before a Reconstructor compiles its OpenCL kernels from source because the on-disk program
+/// cache holds none for this device, driver and library version (the first run on a machine, or
+/// caching off). Compiling takes seconds (about 5 s on PoCL); a cached program loads in milliseconds.
+/// The cache is $TRILEVEL_CACHE_DIR if set (empty: off), else $XDG_CACHE_HOME/trilevel, else
+/// $HOME/.cache/trilevel.
+struct KernelCompileNotice {
+    std::string device;     ///< the device's name (DeviceInfo::name)
+    std::string cache_dir;  ///< where the compiled program is kept for the next start; empty: caching is off
+};
+
 class Reconstructor {
 public:
     /// device < 0: the TRILEVEL_DEVICE environment variable, else the first GPU, else the first CPU.
-    explicit Reconstructor(int device = -1);
+    /// on_compile, when set, is called on the calling thread just before a program is compiled
+    /// from source instead of loaded from the cache: in the constructor, or in a reconstruct() that
+    /// first needs the kernels of 64-bit fine keys (the CLI prints the first one on stderr).
+    explicit Reconstructor(int device = -1, std::function<void(const KernelCompileNotice&)> on_compile = {});
     ~Reconstructor();
     Reconstructor(Reconstructor&&) noexcept;
     Reconstructor& operator=(Reconstructor&&) noexcept;

@@ -1,10 +1,14 @@
-"""Tests of the trilevel Python module, run by CTest (`ctest -R python_module`).
+"""Tests of the trilevel Python module, run by CTest (`ctest -R python_module`) on the build tree
+and by pytest on the pip-installed package (.ci/python-package.sh).
 
-CTest sets PYTHONPATH to the built module, TRILEVEL_CLI to the CLI binary and TRILEVEL_SHARED_DIR
-to ../shared (real SPH frames; those tests are skipped with a message when it is absent).
+CTest sets PYTHONPATH to the built package, TRILEVEL_CLI to the CLI binary and TRILEVEL_SHARED_DIR
+to ../shared (real SPH frames; those tests are skipped with a message when it is absent). Unset,
+TRILEVEL_CLI is the `trilevel` command on PATH (a venv's, after `pip install .`) and
+TRILEVEL_SHARED_DIR is ../shared beside this checkout.
 """
 import json
 import os
+import shutil
 import subprocess
 import tempfile
 import threading
@@ -15,6 +19,7 @@ import numpy as np
 
 import trilevel
 
+CHECKOUT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 R = 0.025  # particle radius of the generated scenes and of the SPlisHSPlasH frames, world units
 
 
@@ -42,7 +47,7 @@ def assert_bit_equal(test, a, b):
 
 
 def shared_frame(name):
-    shared = os.environ.get("TRILEVEL_SHARED_DIR", "")
+    shared = os.environ.get("TRILEVEL_SHARED_DIR", os.path.join(CHECKOUT, "..", "shared"))
     path = os.path.join(shared, "data", name)
     if not shared or not os.path.isfile(path):
         raise unittest.SkipTest(f"SKIPPED: {path} is absent (../shared/data beside the checkout)")
@@ -347,9 +352,9 @@ class CliAgreementTest(unittest.TestCase):
     """The module and the CLI run the same library: same frame, same mesh, bit for bit."""
 
     def cli(self, *args):
-        cli = os.environ.get("TRILEVEL_CLI", "")
+        cli = os.environ.get("TRILEVEL_CLI") or shutil.which("trilevel") or ""
         if not os.path.isfile(cli):
-            self.skipTest("SKIPPED: TRILEVEL_CLI does not name the trilevel binary")
+            self.skipTest("SKIPPED: neither TRILEVEL_CLI nor PATH gives the trilevel binary")
         subprocess.run([cli, *args], check=True)
 
     def assert_same_stats(self, stats, cli_stats_path):
