@@ -1,0 +1,41 @@
+// Clipping a closed mesh to an axis-aligned box and closing it there. Each face of the box cuts
+// the mesh in turn: triangles outside the face's half-space go, the crossing ones are cut at the
+// plane (new vertices exactly on it, one per cut edge, shared by the edge's two triangles), and
+// the loops the cut leaves are closed with a flat cap (host/polygon_triangulation.hpp: outer
+// boundaries with holes, nested), oriented outward. A closed, consistently oriented mesh stays
+// closed and oriented by index after every face.
+#pragma once
+
+#include <cstddef>
+
+#include "trilevel/trilevel.hpp"
+
+namespace trilevel {
+
+struct ClipCounts {
+    std::size_t cap_triangles = 0;  ///< triangles of the caps
+    std::size_t cut_edges = 0;      ///< edges cut (one new vertex each)
+    std::size_t merged = 0;         ///< cut vertices merged into a neighbour closer than the snap distance
+    std::size_t flipped = 0;        ///< flat triangles on the box's edges removed by an edge flip
+    std::size_t snapped = 0;        ///< vertices moved off a plane (see clip_mesh_to_half_space)
+    std::size_t forced = 0;         ///< cap triangles cut without a valid ear (crossing input only)
+};
+
+/// Keeps the part of `mesh` with side * (p[axis] - value) <= 0 (side +1: below the plane, -1:
+/// above) and caps it. Vertices closer than `snap` (> 0) to the plane are first moved along the
+/// axis to `snap` inside it, so that no vertex lies on the plane and no cut vertex comes nearer
+/// than `snap` to a vertex of its edge (no needle triangles, no coincident points in the cap).
+/// New vertices: vertex_level the lower of the edge's two ends; normals (if any) interpolated and
+/// renormalised, attributes interpolated linearly. Pieces of cut triangles keep their kind; cap
+/// triangles are TriangleKind::Patch. Consecutive cut vertices of a loop closer than `snap` are merged
+/// (the boundary edge between them collapsed), so that no triangle collapses when rounded to float.
+/// A mesh entirely outside becomes empty. Deterministic.
+ClipCounts clip_mesh_to_half_space(Mesh& mesh, int axis, float value, int side, double snap);
+
+/// Clips by the box's six faces (x max, x min, y max, y min, z max, z min); `particle_radius` sets
+/// the snap distance: 1e-3 r, or 64 float steps at the plane's coordinate if larger. Every vertex
+/// of the result lies in the box. Triangles left flat (zero area in float) on the box's edges are
+/// then removed by edge flips. `box` must be valid (finite, min < max).
+ClipCounts clip_mesh_to_box(Mesh& mesh, const Box& box, float particle_radius);
+
+}  // namespace trilevel
