@@ -499,8 +499,7 @@ int run(int argc, char** argv) {
                     "(small droplets and cavities; default 0 = off)");
     rec->add_option("--clip-box", ra.clip_box,
                     "X0,Y0,Z0,X1,Y1,Z1: cut the surface at this box (world units) and close it there with flat caps: "
-                    "the mesh stays closed, every vertex in the box; a box without fluid gives an empty mesh. "
-                    "Negative first bound: --clip-box=-1,...");
+                    "the mesh stays closed, every vertex in the box; a box without fluid gives an empty mesh");
     rec->add_option("--start", ra.start, "Sequences: first frame number to process (inclusive)");
     rec->add_option("--end", ra.end, "Sequences: last frame number to process (inclusive)");
     rec->add_flag("--skip-existing", ra.skip_existing, "Sequences: skip frames whose outputs exist (resume a run)");

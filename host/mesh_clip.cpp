@@ -334,6 +334,18 @@ ClipCounts clip_mesh_to_box(Mesh& mesh, const Box& box, float particle_radius) {
             total.merged += c.merged;
         }
     total.flipped = flip_flat_triangles(mesh, box);
+    // Caps of one face that a later face cut are counted once more above: count those left.
+    std::size_t on_faces = 0;
+    for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
+        const std::uint32_t* tri = &mesh.triangles[3 * t];
+        bool on = false;
+        for (int k = 0; k < 3 && !on; ++k)
+            for (const float plane : {box.min[k], box.max[k]})
+                on = on || (mesh.positions[3 * tri[0] + k] == plane && mesh.positions[3 * tri[1] + k] == plane &&
+                            mesh.positions[3 * tri[2] + k] == plane);
+        on_faces += on;
+    }
+    total.cap_triangles = on_faces;
     return total;
 }
 

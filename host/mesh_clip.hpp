@@ -13,7 +13,8 @@
 namespace trilevel {
 
 struct ClipCounts {
-    std::size_t cap_triangles = 0;  ///< triangles of the caps
+    std::size_t cap_triangles = 0;  ///< triangles of the caps (clip_mesh_to_box: those left in the result,
+                                    ///< the triangles on the box's faces)
     std::size_t cut_edges = 0;      ///< edges cut (one new vertex each)
     std::size_t merged = 0;         ///< cut vertices merged into a neighbour closer than the snap distance
     std::size_t flipped = 0;        ///< flat triangles on the box's edges removed by an edge flip

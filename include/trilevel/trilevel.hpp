@@ -151,7 +151,7 @@ struct Stats {
     std::size_t crack_vertices_collapsed = 0; ///< inner crack crossings merged away (CrackClosing::Collapse)
     std::size_t particles_outside_box = 0;  ///< particles Params::particle_box ignored (of `particles`)
     std::size_t components_removed = 0;     ///< components Params::remove_components_below dropped
-    std::size_t clip_cap_triangles = 0;     ///< triangles of the caps Params::clip_box made
+    std::size_t clip_cap_triangles = 0;     ///< triangles of the caps Params::clip_box made (on the box faces)
     std::vector<std::pair<std::string, double>> time_ms;  ///< milliseconds (wall) per stage in pipeline order, then "total"
     std::vector<std::pair<std::string, double>> kernel_ms; ///< milliseconds of OpenCL profiling time per kernel
     std::uint64_t peak_memory_bytes = 0;   ///< bytes; process peak resident memory after the run
