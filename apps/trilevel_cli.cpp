@@ -89,7 +89,8 @@ void check_output(const std::string& path, const std::vector<std::string>& exten
 struct ReconstructArgs {
     std::string input, output, radius, kernel_radius = "4", mode = "adaptive", cell = "1", threshold, memory,
         stats, hysteresis, level2_tolerance, threads, crack_closing = "collapse";
-    std::string particle_box, clip_box, remove_below;  // post-processing and input filter; "" = off
+    std::string particle_box, clip_box, remove_below;  // input filter and post-processing
+    bool has_particle_box = false, has_clip_box = false, has_remove_below = false;  // given (even empty)
     std::string start, end;  // frame sequences: range of frame numbers
     int device = -1;
     bool color_levels = false, quiet = false, skip_existing = false, drop_invalid = false;
@@ -152,9 +153,9 @@ trilevel::Params make_params(const ReconstructArgs& a) {
         if (!(h >= 0 && h < 1)) throw UsageError("--level-hysteresis must lie in [0, 1), got '" + a.hysteresis + "'");
         p.level_hysteresis = static_cast<float>(h);
     }
-    if (!a.particle_box.empty()) p.particle_box = parse_box("--particle-box", a.particle_box);
-    if (!a.clip_box.empty()) p.clip_box = parse_box("--clip-box", a.clip_box);
-    if (!a.remove_below.empty()) {
+    if (a.has_particle_box) p.particle_box = parse_box("--particle-box", a.particle_box);
+    if (a.has_clip_box) p.clip_box = parse_box("--clip-box", a.clip_box);
+    if (a.has_remove_below) {
         const double n = parse_number("--remove-components-below", a.remove_below);
         if (!(n >= 0 && n <= 1e30))
             throw UsageError("--remove-components-below must be finite and >= 0 (particle volumes), got '" + a.remove_below + "'");
@@ -491,13 +492,13 @@ int run(int argc, char** argv) {
                     "Sequences, adaptive mode: a cell keeps its previous level until its curvature passes the "
                     "threshold by this fraction of it, and the level-2 check's tolerance is held the same way "
                     "(default 0.2, 0 = off)");
-    rec->add_option("--particle-box", ra.particle_box,
+    auto* particle_box = rec->add_option("--particle-box", ra.particle_box,
                     "X0,Y0,Z0,X1,Y1,Z1: ignore the particles outside this box (world units, bounds inclusive), "
                     "with their attributes");
-    rec->add_option("--remove-components-below", ra.remove_below,
+    auto* remove_below = rec->add_option("--remove-components-below", ra.remove_below,
                     "Drop the connected parts of the mesh that enclose less than N particle volumes, N (2r)^3 "
                     "(small droplets and cavities; default 0 = off)");
-    rec->add_option("--clip-box", ra.clip_box,
+    auto* clip_box = rec->add_option("--clip-box", ra.clip_box,
                     "X0,Y0,Z0,X1,Y1,Z1: cut the surface at this box (world units) and close it there with flat caps: "
                     "the mesh stays closed, every vertex in the box; a box without fluid gives an empty mesh");
     rec->add_option("--start", ra.start, "Sequences: first frame number to process (inclusive)");
@@ -530,6 +531,9 @@ int run(int argc, char** argv) {
         return report(e.what(), 2);
     }
     if (rec->parsed() && normals->count() > 0 && ra.normals.empty()) ra.normals = "gradient";
+    ra.has_particle_box = particle_box->count() > 0;
+    ra.has_clip_box = clip_box->count() > 0;
+    ra.has_remove_below = remove_below->count() > 0;
     if (rec->parsed()) return run_reconstruct(ra);
     if (gen->parsed()) return run_generate(ga);
     if (info->parsed()) return run_info(info_input);
