@@ -240,7 +240,7 @@ TEST_CASE("polygon triangulation: squares, holes, islands and random star polygo
 
 // ---- clipping closed meshes --------------------------------------------------------------------
 
-TEST_CASE("clip: a sphere cut by one plane keeps the analytic cap volume; both halves add up", "[clip]") {
+TEST_CASE("clip: a sphere cut by one plane keeps the analytic cap volume, both halves add up", "[clip]") {
     const double c[3] = {0.3, -0.2, 0.1}, R = 1.0;
     const Mesh sphere = icosphere(6, c, R);  // 81920 triangles
     const double whole = signed_volume(sphere);
@@ -349,7 +349,7 @@ TEST_CASE("clip: vertices exactly on the planes, nested cavity, and the same bit
 
 // ---- components ----------------------------------------------------------------------------
 
-TEST_CASE("components: small ones are removed by |volume|, cavities included; the rest is untouched", "[components]") {
+TEST_CASE("components: small ones are removed by |volume|, cavities included, the rest untouched", "[components]") {
     const double c0[3] = {0, 0, 0}, c1[3] = {3, 0, 0}, c2[3] = {-3, 0, 0}, c3[3] = {0, 3, 0};
     Mesh m = join(join(icosphere(3, c0, 1.0), icosphere(2, c1, 0.2)), join(icosphere(2, c2, 0.4), icosphere(2, c0, 0.3, 0.0, 1, true)));
     m = join(m, icosphere(1, c3, 0.1));
