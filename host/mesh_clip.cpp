@@ -64,12 +64,23 @@ double dist2_of(const Mesh& m, std::uint32_t a, std::uint32_t b) {
     return s;
 }
 
-/// Triangles of zero area (three vertices on one line, in float): where a box edge gathers the
-/// collinear boundaries of two caps, a later cut may put a vertex on that line. Each is removed by
-/// flipping its longest edge (a, b) against the triangle across it, (b, a, d): the middle vertex c
-/// then joins d, giving (c, a, d) and (c, d, b), the two halves of (b, a, d). Only triangles with a
-/// vertex on the box's boundary can be flat this way, so only those are indexed. Returns the flips.
-std::size_t flip_flat_triangles(Mesh& m, const Box& box) {
+/// The component of triangle (a, b, c)'s normal along the outward normal of face (axis, side).
+double facing(const Mesh& m, std::uint32_t a, std::uint32_t b, std::uint32_t c, int axis, int side) {
+    const int u = (axis + 1) % 3, w = (axis + 2) % 3;
+    const double bu = double(m.positions[3 * b + u]) - m.positions[3 * a + u], bw = double(m.positions[3 * b + w]) - m.positions[3 * a + w];
+    const double cu = double(m.positions[3 * c + u]) - m.positions[3 * a + u], cw = double(m.positions[3 * c + w]) - m.positions[3 * a + w];
+    return side * (bu * cw - bw * cu);
+}
+
+/// Triangles of zero area (three vertices on one line, in float), and slivers on a box face
+/// turned over: where a box edge gathers the straight boundaries of two caps, a later cut, the
+/// snap or a merge may put a vertex on that line or just across it. Each is removed by flipping
+/// its longest edge (a, b) against the triangle across it, (b, a, d): the third vertex c then joins
+/// d, giving (c, a, d) and (c, d, b), which replace (b, a, d) and the bad triangle when c lies on
+/// or just inside (b, a, d) -- the flip is made only when both are sound (non-zero area, facing out
+/// on a face). Only triangles with a vertex on the box's boundary can be bad this way, so only
+/// those are indexed. Returns the flips.
+std::size_t flip_bad_triangles(Mesh& m, const Box& box) {
     const std::size_t nv = m.vertex_count(), nt = m.triangle_count();
     std::vector<std::uint8_t> on(nv, 0);
     for (std::size_t v = 0; v < nv; ++v)
@@ -88,33 +99,51 @@ std::size_t flip_flat_triangles(Mesh& m, const Box& box) {
     };
     edge.reserve(3 * near.size());
     for (std::uint32_t t : near) index(t, true);
+    // sound: non-zero area, and facing out when on a face
+    auto sound = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+        if (area2(m, a, b, c) == 0.0) return false;
+        for (int k = 0; k < 3; ++k)
+            for (int s : {1, -1}) {
+                const float plane = s > 0 ? box.max[k] : box.min[k];
+                if (m.positions[3 * a + k] == plane && m.positions[3 * b + k] == plane && m.positions[3 * c + k] == plane)
+                    return facing(m, a, b, c, k, s) > 0.0;
+            }
+        return true;
+    };
     std::size_t flips = 0;
-    for (int pass = 0; pass < 64; ++pass) {  // a fan of flat triangles unfolds from its outer end, one a pass
+    for (int pass = 0; pass < 64; ++pass) {  // a fan of bad triangles unfolds from its outer end, one a pass
         std::size_t flipped = 0;
         for (std::uint32_t t : near) {
             std::uint32_t* T = &m.triangles[3 * t];
-            if (area2(m, T[0], T[1], T[2]) != 0.0) continue;
-            int r = 0;  // the longest edge T[r] -> T[r + 1]
-            for (int k = 1; k < 3; ++k)
-                if (dist2_of(m, T[k], T[(k + 1) % 3]) > dist2_of(m, T[r], T[(r + 1) % 3])) r = k;
-            const std::uint32_t a = T[r], b = T[(r + 1) % 3], c = T[(r + 2) % 3];
-            if (dist2_of(m, c, a) == 0.0 || dist2_of(m, c, b) == 0.0) continue;  // coincident points
-            const auto across = edge.find(key(b, a));
-            if (across == edge.end()) continue;
-            const std::uint32_t n = across->second;
-            std::uint32_t* N = &m.triangles[3 * n];
-            int q = 0;
-            while (N[q] != b) ++q;
-            const std::uint32_t d = N[(q + 2) % 3];
-            if (d == c || edge.count(key(c, d)) || edge.count(key(d, c))) continue;
-            if (area2(m, c, a, d) == 0.0 || area2(m, c, d, b) == 0.0) continue;
-            index(t, false);
-            index(n, false);
-            T[0] = c, T[1] = a, T[2] = d;
-            N[0] = c, N[1] = d, N[2] = b;
-            index(t, true);
-            index(n, true);
-            ++flipped;
+            if (sound(T[0], T[1], T[2])) continue;
+            // its edges from the longest: the first whose flip gives two sound triangles
+            int order[3] = {0, 1, 2};
+            std::sort(order, order + 3, [&](int i, int j) {
+                const double li = dist2_of(m, T[i], T[(i + 1) % 3]), lj = dist2_of(m, T[j], T[(j + 1) % 3]);
+                return li != lj ? li > lj : i < j;
+            });
+            for (int r : order) {
+                const std::uint32_t a = T[r], b = T[(r + 1) % 3], c = T[(r + 2) % 3];
+                if (dist2_of(m, c, a) == 0.0 || dist2_of(m, c, b) == 0.0) continue;  // coincident points
+                const auto across = edge.find(key(b, a));
+                if (across == edge.end()) continue;
+                const std::uint32_t n = across->second;
+                std::uint32_t* N = &m.triangles[3 * n];
+                int q = 0;
+                while (N[q] != b) ++q;
+                const std::uint32_t d = N[(q + 2) % 3];
+                if (d == c || edge.count(key(c, d)) || edge.count(key(d, c))) continue;
+                if (!sound(c, a, d) || !sound(c, d, b)) continue;
+                index(t, false);
+                index(n, false);
+                T[0] = c, T[1] = a, T[2] = d;
+                N[0] = c, N[1] = d, N[2] = b;
+                if (!m.triangle_kind.empty()) m.triangle_kind[t] = m.triangle_kind[n];  // both are halves of (b, a, d)
+                index(t, true);
+                index(n, true);
+                ++flipped;
+                break;
+            }
         }
         flips += flipped;
         if (!flipped) break;
@@ -124,21 +153,28 @@ std::size_t flip_flat_triangles(Mesh& m, const Box& box) {
 
 }  // namespace
 
-ClipCounts clip_mesh_to_half_space(Mesh& mesh, int axis, float value, int side, double snap) {
+ClipCounts clip_mesh_to_half_space(Mesh& mesh, int axis, float value, int side, double snap, const Box* faces) {
     ClipCounts counts;
     const std::size_t nv = mesh.vertex_count(), nt = mesh.triangle_count();
     const double c = value, s = side > 0 ? 1.0 : -1.0;
-    // Vertices near the plane move inside by `snap`: afterwards every vertex is strictly on one side.
-    const float inner = float(c - s * snap);
+    // Vertices near the plane move inside: the signed distances in [-2 snap, snap) are mapped onto
+    // [-2 snap, -snap] by d -> -2 snap + (d + 2 snap) / 3, continuous and increasing, so that
+    // afterwards every vertex is at least `snap` from the plane while the order of the vertices
+    // along the axis is kept (a clamp onto one value would merge vertices and turn thin triangles
+    // over).
     std::vector<double> d(nv);
-    std::vector<std::uint8_t> out(nv);
+    std::vector<std::uint8_t> out(nv), moved(nv);
     tbb::parallel_for(std::size_t(0), nv, [&](std::size_t v) {
         float& x = mesh.positions[3 * v + std::size_t(axis)];
-        if (std::fabs(s * (double(x) - c)) < snap) x = inner;
+        const double dist = s * (double(x) - c);
+        if (dist >= -2.0 * snap && dist < snap) {
+            x = float(c + s * (-2.0 * snap + (dist + 2.0 * snap) / 3.0));
+            moved[v] = 1;
+        }
         d[v] = s * (double(x) - c);
         out[v] = d[v] > 0.0;
     });
-    for (std::size_t v = 0; v < nv; ++v) counts.snapped += mesh.positions[3 * v + std::size_t(axis)] == inner;
+    for (std::uint8_t m : moved) counts.snapped += m;
     std::size_t outside = 0;
     for (std::uint8_t o : out) outside += o;
     if (outside == 0) return counts;
@@ -259,6 +295,18 @@ ClipCounts clip_mesh_to_half_space(Mesh& mesh, int axis, float value, int side, 
         }
         loop = std::move(anchors);
     }
+    if (merged && faces) {
+        // A run merged across a box edge (members on different faces) goes to the edge: the
+        // anchor takes every face coordinate a member lies on, so that no triangle of either face
+        // leaves its face, and none turns over within it (a flat one is flipped away later).
+        for (std::size_t i = 0; i < nc; ++i) {
+            if (rep[i] == i) continue;
+            const float* p = &res.positions[3 * (first_cut + i)];
+            float* q = &res.positions[3 * (first_cut + rep[i])];
+            for (int k = 0; k < 3; ++k)
+                if (k != axis && (p[k] == faces->min[k] || p[k] == faces->max[k])) q[k] = p[k];
+        }
+    }
     if (merged) {
         std::size_t kept = 0;
         for (std::size_t t = 0; t < res.triangle_count(); ++t) {
@@ -326,14 +374,14 @@ ClipCounts clip_mesh_to_box(Mesh& mesh, const Box& box, float particle_radius) {
             const float mag = std::fabs(value);
             const double ulp = double(std::nextafter(mag, INFINITY)) - double(mag);
             const double snap = std::max(1e-3 * double(particle_radius), 64.0 * ulp);
-            const ClipCounts c = clip_mesh_to_half_space(mesh, axis, value, side, snap);
+            const ClipCounts c = clip_mesh_to_half_space(mesh, axis, value, side, snap, &box);
             total.cap_triangles += c.cap_triangles;
             total.cut_edges += c.cut_edges;
             total.snapped += c.snapped;
             total.forced += c.forced;
             total.merged += c.merged;
         }
-    total.flipped = flip_flat_triangles(mesh, box);
+    total.flipped = flip_bad_triangles(mesh, box);
     // Caps of one face that a later face cut are counted once more above: count those left.
     std::size_t on_faces = 0;
     for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {

