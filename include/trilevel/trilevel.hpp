@@ -91,7 +91,8 @@ struct Params {
     float remove_components_below = 0.0f;
     /// The surface is cut at this box (world units) and closed there with flat caps on its faces,
     /// so the mesh stays closed and oriented by index and every vertex lies in the box (vertices
-    /// within 1e-3 r of a face before the cut are moved onto the inside, by at most that). Applied
+    /// within about 1e-3 r of a face are first moved inside along its normal, by at most 2e-3 r:
+    /// docs/postprocessing.md). Applied
     /// last. Cap triangles are TriangleKind::Patch (Stats::clip_cap_triangles); a vertex made on a
     /// cut edge takes the lower level of the edge's two ends. A box that holds no fluid gives an
     /// empty mesh (no triangles), which counts as closed. Unset: no clipping.
