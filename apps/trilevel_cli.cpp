@@ -90,12 +90,42 @@ void check_output(const std::string& path, const std::vector<std::string>& exten
 struct ReconstructArgs {
     std::string input, output, radius, kernel_radius = "4", mode = "adaptive", cell = "1", threshold, memory,
         stats, hysteresis, level2_tolerance, threads, crack_closing = "collapse";
+    std::string particle_box, clip_box, remove_below;  // input filter and post-processing
+    bool has_particle_box = false, has_clip_box = false, has_remove_below = false;  // given (even empty)
     std::string start, end;  // frame sequences: range of frame numbers
     int device = -1;
     bool color_levels = false, quiet = false, skip_existing = false, drop_invalid = false;
     std::string normals;                  ///< "" (none), "gradient" or "area"
     std::vector<std::string> attributes;  ///< particle attributes to interpolate at the vertices
 };
+
+/// A box option "X0,Y0,Z0,X1,Y1,Z1": six finite numbers, the minimum corner below the maximum.
+trilevel::Box parse_box(const std::string& name, const std::string& text) {
+    std::vector<double> v;
+    std::size_t start = 0;
+    bool numbers = true;
+    while (numbers) {
+        const std::size_t comma = text.find(',', start);
+        const std::string item = text.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+        char* end = nullptr;
+        const double x = std::strtod(item.c_str(), &end);
+        numbers = !item.empty() && end == item.c_str() + item.size() && std::isfinite(x) &&
+                  std::fabs(x) <= std::numeric_limits<float>::max();
+        v.push_back(x);
+        if (comma == std::string::npos) break;
+        start = comma + 1;
+    }
+    if (!numbers || v.size() != 6)
+        throw UsageError(name + " must be six finite numbers X0,Y0,Z0,X1,Y1,Z1, got '" + text + "'");
+    trilevel::Box b;
+    for (int k = 0; k < 3; ++k) {
+        b.min[k] = static_cast<float>(v[std::size_t(k)]);
+        b.max[k] = static_cast<float>(v[std::size_t(k) + 3]);
+        if (!(b.min[k] < b.max[k]))
+            throw UsageError(name + " is empty: " + "XYZ"[k] + "0 must be below " + "XYZ"[k] + "1, got '" + text + "'");
+    }
+    return b;
+}
 
 trilevel::Params make_params(const ReconstructArgs& a) {
     trilevel::Params p;
@@ -123,6 +153,14 @@ trilevel::Params make_params(const ReconstructArgs& a) {
         const double h = parse_number("--level-hysteresis", a.hysteresis);
         if (!(h >= 0 && h < 1)) throw UsageError("--level-hysteresis must lie in [0, 1), got '" + a.hysteresis + "'");
         p.level_hysteresis = static_cast<float>(h);
+    }
+    if (a.has_particle_box) p.particle_box = parse_box("--particle-box", a.particle_box);
+    if (a.has_clip_box) p.clip_box = parse_box("--clip-box", a.clip_box);
+    if (a.has_remove_below) {
+        const double n = parse_number("--remove-components-below", a.remove_below);
+        if (!(n >= 0 && n <= 1e30))
+            throw UsageError("--remove-components-below must be finite and >= 0 (particle volumes), got '" + a.remove_below + "'");
+        p.remove_components_below = static_cast<float>(n);
     }
     if (a.normals == "gradient") p.normals = trilevel::NormalMode::Gradient;
     else if (a.normals == "area") p.normals = trilevel::NormalMode::Area;
@@ -225,6 +263,13 @@ void reconstruct_file(std::optional<trilevel::Reconstructor>& rec, const trileve
                     "total time: %.1f ms\noutput: %s\n",
                     count, stats.surface_cells, stats.surface_cells_level2, stats.surface_cells_level3,
                     mesh.triangle_count(), stats.closed ? "yes" : "no", total_ms(stats, wall), output.c_str());
+    if (!a.quiet && !result) {
+        if (params.particle_box) std::printf("particles outside --particle-box: %zu\n", stats.particles_outside_box);
+        if (params.remove_components_below > 0) std::printf("components removed: %zu\n", stats.components_removed);
+        if (params.clip_box) std::printf("clip-box cap triangles: %zu\n", stats.clip_cap_triangles);
+    }
+    if (params.clip_box && mesh.triangle_count() == 0)
+        std::fprintf(stderr, "warning: %s: --clip-box holds no part of the surface, the mesh is empty\n", input.c_str());
 }
 
 int run_reconstruct(const ReconstructArgs& a) {
@@ -461,6 +506,15 @@ int run(int argc, char** argv) {
                     "Sequences, adaptive mode: a cell keeps its previous level until its curvature passes the "
                     "threshold by this fraction of it, and the level-2 check's tolerance is held the same way "
                     "(default 0.2, 0 = off)");
+    auto* particle_box = rec->add_option("--particle-box", ra.particle_box,
+                    "X0,Y0,Z0,X1,Y1,Z1: ignore the particles outside this box (world units, bounds inclusive), "
+                    "with their attributes");
+    auto* remove_below = rec->add_option("--remove-components-below", ra.remove_below,
+                    "Drop the connected parts of the mesh that enclose less than N particle volumes, N (2r)^3 "
+                    "(small droplets and cavities; default 0 = off)");
+    auto* clip_box = rec->add_option("--clip-box", ra.clip_box,
+                    "X0,Y0,Z0,X1,Y1,Z1: cut the surface at this box (world units) and close it there with flat caps: "
+                    "the mesh stays closed, every vertex in the box; a box without fluid gives an empty mesh");
     rec->add_option("--start", ra.start, "Sequences: first frame number to process (inclusive)");
     rec->add_option("--end", ra.end, "Sequences: last frame number to process (inclusive)");
     rec->add_flag("--skip-existing", ra.skip_existing, "Sequences: skip frames whose outputs exist (resume a run)");
@@ -491,6 +545,9 @@ int run(int argc, char** argv) {
         return report(e.what(), 2);
     }
     if (rec->parsed() && normals->count() > 0 && ra.normals.empty()) ra.normals = "gradient";
+    ra.has_particle_box = particle_box->count() > 0;
+    ra.has_clip_box = clip_box->count() > 0;
+    ra.has_remove_below = remove_below->count() > 0;
     if (rec->parsed()) return run_reconstruct(ra);
     if (gen->parsed()) return run_generate(ga);
     if (info->parsed()) return run_info(info_input);

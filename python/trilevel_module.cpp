@@ -68,10 +68,23 @@ struct ReconstructOptions {
     std::uint64_t memory_limit = 0;
     float level_hysteresis = 0.0f;
     std::string crack_closing = "collapse";  ///< "collapse" or "patches"
+    float remove_components_below = 0.0f;    ///< particle volumes; 0 = off
+    std::optional<std::vector<double>> particle_box;  ///< (x0, y0, z0, x1, y1, z1) or None
+    std::optional<std::vector<double>> clip_box;      ///< (x0, y0, z0, x1, y1, z1) or None
     std::optional<std::string> normals;  ///< None, "gradient" or "area"
     std::optional<py::dict> attributes;  ///< name -> (n,) or (n, 3) array per particle
     bool return_levels = false;
 };
+
+/// A box keyword: six numbers x0, y0, z0, x1, y1, z1 (the library checks them).
+std::optional<trilevel::Box> to_box(const std::optional<std::vector<double>>& v, const char* name) {
+    if (!v) return std::nullopt;
+    if (v->size() != 6)
+        throw trilevel::Error(std::string(name) + " must be six numbers (x0, y0, z0, x1, y1, z1), got " + std::to_string(v->size()));
+    trilevel::Box b;
+    for (int k = 0; k < 3; ++k) b.min[k] = float((*v)[std::size_t(k)]), b.max[k] = float((*v)[std::size_t(k) + 3]);
+    return b;
+}
 
 trilevel::Params make_params(float particle_radius, const ReconstructOptions& o) {
     trilevel::Params p;
@@ -88,6 +101,9 @@ trilevel::Params make_params(float particle_radius, const ReconstructOptions& o)
     if (o.crack_closing == "collapse") p.crack_closing = trilevel::CrackClosing::Collapse;
     else if (o.crack_closing == "patches") p.crack_closing = trilevel::CrackClosing::Patches;
     else throw trilevel::Error("crack_closing must be 'collapse' or 'patches', got '" + o.crack_closing + "'");
+    p.remove_components_below = o.remove_components_below;
+    p.particle_box = to_box(o.particle_box, "particle_box");
+    p.clip_box = to_box(o.clip_box, "clip_box");
     if (!o.normals) p.normals = trilevel::NormalMode::None;
     else if (*o.normals == "gradient") p.normals = trilevel::NormalMode::Gradient;
     else if (*o.normals == "area") p.normals = trilevel::NormalMode::Area;
@@ -180,7 +196,8 @@ struct PyReconstructor {
 
 /// The types of ReconstructOptions' fields, in order: the bound functions take these after
 /// positions and particle_radius and build the struct from them (aggregate initialisation).
-using OptionTypes = std::tuple<std::string, float, float, float, float, std::uint64_t, float, std::string, std::optional<std::string>,
+using OptionTypes = std::tuple<std::string, float, float, float, float, std::uint64_t, float, std::string, float,
+                               std::optional<std::vector<double>>, std::optional<std::vector<double>>, std::optional<std::string>,
                                std::optional<py::dict>, bool>;
 
 /// Defines Reconstructor.reconstruct (on `cls`) and reconstruct() (on `m`, with a device) with the
@@ -192,7 +209,8 @@ void define_reconstruct(py::class_<PyReconstructor>& cls, py::module_& m, const 
         py::arg("positions"), py::arg("particle_radius"), py::kw_only(), py::arg("mode") = "adaptive",
         py::arg("cell") = 1.0f, py::arg("kernel_radius") = 4.0f, py::arg("curvature_threshold") = 0.0f,
         py::arg("level2_tolerance") = trilevel::Params{}.level2_tolerance, py::arg("memory_limit") = 0, py::arg("level_hysteresis") = 0.0f,
-        py::arg("crack_closing") = "collapse", py::arg("normals") = py::none(), py::arg("attributes") = py::none(), py::arg("return_levels") = false);
+        py::arg("crack_closing") = "collapse", py::arg("remove_components_below") = 0.0f, py::arg("particle_box") = py::none(),
+        py::arg("clip_box") = py::none(), py::arg("normals") = py::none(), py::arg("attributes") = py::none(), py::arg("return_levels") = false);
     std::apply([&](auto... a) {
         cls.def("reconstruct",
                 [](PyReconstructor& rec, const Array<float>& positions, float particle_radius, Option... option) {
@@ -235,6 +253,15 @@ level_hysteresis: adaptive mode, frame sequences on one Reconstructor: a coarse 
 crack_closing: adaptive mode: "collapse" (the default: crack patches, then the cracks' inner
     crossings merged into the level-2 crossings, two triangles fewer each) or "patches" (the
     patches alone, as the paper closes cracks); CLI --crack-closing.
+remove_components_below: drop the connected parts of the mesh that enclose less than this many
+    particle volumes, N (2r)^3, by |volume| (a small closed cavity is filled too); 0 (the default)
+    = off. stats["components_removed"] counts them (CLI --remove-components-below).
+particle_box: None or (x0, y0, z0, x1, y1, z1) in world units: the particles outside are ignored,
+    with their attributes (bounds inclusive), as if they had not been given; stats["particles"]
+    still counts all, stats["particles_outside_box"] those ignored (CLI --particle-box).
+clip_box: None or (x0, y0, z0, x1, y1, z1): the surface is cut at this box and closed there with
+    flat caps (triangle kind 2, stats["clip_cap_triangles"]); the mesh stays closed and every
+    vertex lies in the box. A box without fluid gives empty arrays (CLI --clip-box).
 normals: None, "gradient" (unit gradient of the scalar field: the smooth surface's normal) or
     "area" (area-weighted triangle normals): adds per-vertex normals to the result.
 attributes: {name: array} of per-particle values, (n,) for scalars or (n, 3) for vectors (copied,

@@ -23,6 +23,9 @@
 #include "io/io_common.hpp"
 #include "level2_check.hpp"
 #include "level_history.hpp"
+#include "mesh_clip.hpp"
+#include "mesh_components.hpp"
+#include "particle_box.hpp"
 #include "opencl_runtime.hpp"
 #include "stage_constants.hpp"
 #include "surface_mesher.hpp"
@@ -79,6 +82,11 @@ void validate(const Params& p) {
     if (!(p.level_hysteresis >= 0.0f && p.level_hysteresis < 1.0f))
         throw Error("level hysteresis must lie in [0, 1) (a fraction of the curvature threshold), got " +
                     std::to_string(p.level_hysteresis));
+    if (p.particle_box) validate_box(*p.particle_box, "particle box");
+    if (p.clip_box) validate_box(*p.clip_box, "clip box");
+    if (!(std::isfinite(p.remove_components_below) && p.remove_components_below >= 0.0f))
+        throw Error("remove-components-below must be finite and >= 0 (particle volumes; 0 = off), got " +
+                    std::to_string(p.remove_components_below));
     if (p.memory_limit_bytes != 0 && p.memory_limit_bytes < 4096)
         throw Error("memory limit of " + std::to_string(p.memory_limit_bytes) +
                     " bytes cannot hold even the smallest buffers; give at least 4 KiB (0: the device's and host's memory)");
@@ -292,6 +300,22 @@ void add_vertex_data(Mesh& mesh, const float* xyz, std::size_t n, const Params& 
         mesh.attributes = interpolate_attributes(mesh, *grid, xyz, n, R, attributes);
         timer.stage("attributes");
     }
+}
+
+/// Params::remove_components_below on the finished mesh (world units).
+void remove_components(Mesh& m, const Params& p, Stats& s, StageTimer& timer) {
+    const double volume = double(p.remove_components_below) * std::pow(2.0 * double(p.particle_radius), 3.0);
+    s.components_removed = remove_small_components(m, volume);
+    if (s.components_removed) count_mesh(m, s);
+    timer.stage("remove_components");
+}
+
+/// Params::clip_box, the last change of the mesh: cut at the box and closed there.
+void clip_to_box(Mesh& m, const Params& p, Stats& s, StageTimer& timer) {
+    s.clip_cap_triangles = clip_mesh_to_box(m, *p.clip_box, p.particle_radius).cap_triangles;
+    count_mesh(m, s);
+    s.closed = is_closed_and_oriented(m);
+    timer.stage("clip_box");
 }
 
 std::uint64_t peak_rss_bytes() {
@@ -576,6 +600,21 @@ Mesh Reconstructor::reconstruct(std::vector<float>&& xyz, const Params& params, 
     if (xyz.size() % 3 != 0)
         throw Error("positions: " + std::to_string(xyz.size()) + " floats are not x, y, z triplets");
     std::vector<float> owned = std::move(xyz);
+    if (params.particle_box) {  // filtered in place; the rest runs on the particles inside
+        validate(params);
+        validate_attributes(attributes, owned.size() / 3);
+        const std::size_t all = owned.size() / 3;
+        std::vector<ParticleAttribute> inside = attributes;
+        const std::size_t kept = all ? keep_particles_in_box(owned, inside, *params.particle_box) : 0;
+        Params q = params;
+        q.particle_box.reset();
+        Stats local;
+        Stats& s = stats ? *stats : local;
+        Mesh m = reconstruct(std::move(owned), q, &s, inside);
+        s.particles = all;
+        s.particles_outside_box = all - kept;
+        return m;
+    }
     const bool read_later = params.normals != NormalMode::None || !attributes.empty();
     impl_->handed_over = read_later ? nullptr : &owned;
     struct Forget {  // whatever happens, the Impl does not keep a pointer to this frame's vector
@@ -591,6 +630,7 @@ Mesh Reconstructor::reconstruct(const float* xyz, std::size_t count, const Param
     if (count == 0) throw Error("no particles to reconstruct (the input is empty)");
     if (count > std::numeric_limits<std::uint32_t>::max() / 2) throw Error("too many particles for one frame");
     validate_attributes(attributes, count);
+    if (params.particle_box) return reconstruct(std::vector<float>(xyz, xyz + 3 * count), params, stats, attributes);
     Stats local;
     Stats& s = stats ? *stats : local;
     s = Stats{};
@@ -604,7 +644,9 @@ Mesh Reconstructor::reconstruct(const float* xyz, std::size_t count, const Param
     try {
         Mesh m = impl_->frame(xyz, count, params, s);
         rt.end_frame();  // the frame's buffers stay pooled for the next one (trimmed when oversized)
-        StageTimer timer(s);  // normals and attributes: world units, after any scaling or split
+        StageTimer timer(s);  // post-processing, normals and attributes: world units, after any scaling or split
+        if (params.remove_components_below > 0.0f) remove_components(m, params, s, timer);
+        if (params.clip_box) clip_to_box(m, params, s, timer);  // last: every vertex ends in the box
         add_vertex_data(m, xyz, count, params, attributes, timer);
         s.time_ms.emplace_back("total", std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
         // Program builds first: the constructor's, and any on demand during this frame.

@@ -21,6 +21,9 @@ std::string stats_to_json(const Stats& s, const Params& p) {
     j["triangles"] = s.triangles;
     j["triangles_by_kind"] = {{"level2", s.triangles_level2}, {"level3", s.triangles_level3}, {"patch", s.triangles_patch}};
     j["crack_vertices_collapsed"] = s.crack_vertices_collapsed;
+    j["particles_outside_box"] = s.particles_outside_box;
+    j["components_removed"] = s.components_removed;
+    j["clip_cap_triangles"] = s.clip_cap_triangles;
     nlohmann::ordered_json t = nlohmann::ordered_json::object();
     for (const auto& [name, ms] : s.time_ms) t[name] = ms;
     j["time_ms"] = t;
@@ -45,7 +48,13 @@ std::string stats_to_json(const Stats& s, const Params& p) {
                        {"curvature_threshold", p.curvature_threshold > 0 ? p.curvature_threshold : default_curvature_threshold()},
                        {"level2_tolerance", p.level2_tolerance},
                        {"crack_closing", p.crack_closing == CrackClosing::Collapse ? "collapse" : "patches"},
-                       {"level_hysteresis", p.level_hysteresis}};
+                       {"level_hysteresis", p.level_hysteresis},
+                       {"remove_components_below", p.remove_components_below}};
+    auto box = [](const Box& b) {
+        return nlohmann::ordered_json{{"min", {b.min[0], b.min[1], b.min[2]}}, {"max", {b.max[0], b.max[1], b.max[2]}}};
+    };
+    j["parameters"]["particle_box"] = p.particle_box ? box(*p.particle_box) : nlohmann::ordered_json(nullptr);
+    j["parameters"]["clip_box"] = p.clip_box ? box(*p.clip_box) : nlohmann::ordered_json(nullptr);
     return j.dump(2) + "\n";
 }
 

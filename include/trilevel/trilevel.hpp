@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -45,6 +46,13 @@ enum class CrackClosing {
     Patches,   ///< the patches alone: every crack polygon triangulated by ear clipping (paper §3.3.2)
 };
 
+/// An axis-aligned box in world units: the points p with min[k] <= p[k] <= max[k] on every axis.
+/// Valid when every bound is finite and min[k] < max[k].
+struct Box {
+    float min[3] = {0.0f, 0.0f, 0.0f};
+    float max[3] = {0.0f, 0.0f, 0.0f};
+};
+
 /// Reconstruction parameters. Lengths are in multiples of the particle radius r unless stated;
 /// positions (input and output) are in world units.
 struct Params {
@@ -72,6 +80,24 @@ struct Params {
                                        ///< curvature alone, 58% with the default levels (README).
     NormalMode normals = NormalMode::None; ///< per-vertex normals to compute (Mesh::normals)
     CrackClosing crack_closing = CrackClosing::Collapse;  ///< adaptive mode: see CrackClosing
+    /// Particles outside this box (world units, bounds inclusive) are ignored, with their
+    /// attributes, before anything else: the mesh is the one of the particles inside, bit for bit
+    /// (like splashsurf's particle AABB). Unset: every particle. Throws Error when none is inside.
+    std::optional<Box> particle_box;
+    /// Connected components (by vertex index) of the mesh that enclose less than this many particle
+    /// volumes, N (2r)^3, are removed: stray blobs of a few stuck or lost particles. The enclosed
+    /// volume is |V| by the divergence theorem, so a closed inner surface (a cavity, negative V)
+    /// below the size is removed too, i.e. the small bubble is filled. >= 0, finite; 0 = off.
+    /// Runs after the mesh is made, before clip_box. Counted in Stats::components_removed.
+    float remove_components_below = 0.0f;
+    /// The surface is cut at this box (world units) and closed there with flat caps on its faces,
+    /// so the mesh stays closed and oriented by index and every vertex lies in the box (vertices
+    /// within about 1e-3 r of a face are first moved inside along its normal, by at most 2e-3 r:
+    /// docs/postprocessing.md). Applied
+    /// last. Cap triangles are TriangleKind::Patch (Stats::clip_cap_triangles); a vertex made on a
+    /// cut edge takes the lower level of the edge's two ends. A box that holds no fluid gives an
+    /// empty mesh (no triangles), which counts as closed. Unset: no clipping.
+    std::optional<Box> clip_box;
 };
 
 /// A named quantity per particle (input) or per mesh vertex (output): velocity, density, ...
@@ -125,6 +151,9 @@ struct Stats {
     std::size_t triangles_level3 = 0;       ///< TriangleKind::Level3
     std::size_t triangles_patch = 0;        ///< TriangleKind::Patch (crack closing, DESIGN §7)
     std::size_t crack_vertices_collapsed = 0; ///< inner crack crossings merged away (CrackClosing::Collapse)
+    std::size_t particles_outside_box = 0;  ///< particles Params::particle_box ignored (of `particles`)
+    std::size_t components_removed = 0;     ///< components Params::remove_components_below dropped
+    std::size_t clip_cap_triangles = 0;     ///< triangles of the caps Params::clip_box made (on the box faces)
     /// Milliseconds (wall) per stage in pipeline order, then "total". First, when the Reconstructor
     /// built OpenCL programs since the previous call's statistics: "kernel_compile" (compiled from
     /// source: the first run on a device, seconds) and/or "kernel_load" (loaded from the on-disk

@@ -191,6 +191,35 @@ class ReconstructTest(unittest.TestCase):
         with self.assertRaisesRegex(trilevel.Error, "crack_closing must be 'collapse' or 'patches', got 'weld'"):
             self.rec.reconstruct(scene, R, crack_closing="weld")
 
+    def test_clip_box_particle_box_and_small_components(self):
+        scene = trilevel.generate_scene("pool-and-drop", R)
+        box = (0.4, 0.1, 0.3, 2.4, 1.6, 2.6)
+        v, t, stats, levels, kinds = trilevel.reconstruct(scene, R, clip_box=box, remove_components_below=20,
+                                                          return_levels=True)
+        assert_closed(self, v, t)
+        self.assertTrue(stats["closed"])
+        lo, hi = np.float32(box[:3]), np.float32(box[3:])
+        self.assertTrue(np.all(v >= lo - 1e-4 * R) and np.all(v <= hi + 1e-4 * R))
+        self.assertGreater(stats["clip_cap_triangles"], 0)
+        self.assertLessEqual(stats["clip_cap_triangles"], int(np.sum(kinds == 2)))
+        self.assertEqual(len(levels), len(v))
+        self.assertEqual(stats["parameters"]["clip_box"]["min"], [np.float32(x) for x in box[:3]])
+        # the particle box is the same as giving the particles inside
+        pbox = (0.5, -1.0, 0.2, 2.0, 3.0, 2.2)
+        inside = scene[np.all((scene >= np.float32(pbox[:3])) & (scene <= np.float32(pbox[3:])), axis=1)]
+        v1, t1, s1 = trilevel.reconstruct(scene, R, particle_box=pbox)
+        v2, t2, _ = trilevel.reconstruct(inside, R)
+        assert_bit_equal(self, v1, v2)
+        assert_bit_equal(self, t1, t2)
+        self.assertEqual(s1["particles"], len(scene))
+        self.assertEqual(s1["particles_outside_box"], len(scene) - len(inside))
+        with self.assertRaisesRegex(trilevel.Error, "^clip_box must be six numbers"):
+            trilevel.reconstruct(scene, R, clip_box=(0, 0, 0, 1, 1))
+        with self.assertRaisesRegex(trilevel.Error, "^no particles inside the particle box"):
+            trilevel.reconstruct(scene, R, particle_box=(9, 9, 9, 10, 10, 10))
+        with self.assertRaisesRegex(trilevel.Error, "^remove-components-below must be finite"):
+            trilevel.reconstruct(scene, R, remove_components_below=-1.0)
+
     def test_level_hysteresis_and_reset_history(self):
         frames = [trilevel.generate_scene("falling-drop", R, frame=f) for f in range(0, 24, 2)]
         held = {}  # curvature alone (check off) at threshold 4, which the scene's drops cross
