@@ -526,7 +526,8 @@ int run(int argc, char** argv) {
     rec->add_option("--attribute", ra.attributes,
                     "Particle attribute to interpolate at the vertices (e.g. velocity; .vtk/.vtu/.bgeo input; repeatable)")
         ->allow_extra_args(false);  // one name per --attribute, so a following input file stays positional
-    rec->add_option("--memory-limit", ra.memory, "Budget for the largest allocations, bytes or e.g. 2G");
+    rec->add_option("--memory-limit", ra.memory, "Budget for the largest allocations, bytes or e.g. 2G (a sequence: each frame's, "
+                    "less the next frame read ahead and the previous mesh being written)");
     rec->add_flag("-q,--quiet", ra.quiet, "Print nothing on success");
     rec->add_option("--level-hysteresis", ra.hysteresis,
                     "Sequences, adaptive mode: a cell keeps its previous level until its curvature passes the "
