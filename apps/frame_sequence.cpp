@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <new>
 
 #include "trilevel/trilevel.hpp"
 
@@ -182,48 +183,84 @@ SequencePlan plan_frame_sequence(const std::string& input, const std::string& ou
     return plan;
 }
 
-int run_frame_sequence(const SequencePlan& plan, const SequenceOptions& options,
-                       const std::function<FrameResult(const FrameJob&)>& work) {
-    const std::vector<FrameJob>& jobs = plan.jobs;
-    const std::size_t selected = plan.selected, skipped = plan.skipped;
-    Progress progress(jobs.size(), options);
+std::string failure_message(std::exception_ptr error) {
+    try {
+        std::rethrow_exception(error);
+    } catch (const std::bad_alloc&) {
+        return "out of memory";
+    } catch (const std::exception& e) {
+        return one_line(e.what());
+    } catch (...) {
+        return "unknown failure";
+    }
+}
+
+struct SequenceReport::Impl {
+    Impl(const SequencePlan& plan, const SequenceOptions& o) : plan(plan), options(o), progress(plan.jobs.size(), o) {}
+    const SequencePlan& plan;
+    SequenceOptions options;
+    Progress progress;
     std::vector<std::pair<std::string, std::string>> failures;  // frame number, message
     std::size_t flips = 0, compared = 0;
-    for (const FrameJob& job : jobs) {
-        progress.frame_started(job);
-        try {
-            const FrameResult r = work(job);
-            flips += r.level_flips;
-            compared += r.level_cells_compared;
-            progress.frame_ok(job, r.line);
-        } catch (const std::bad_alloc&) {
-            failures.emplace_back(job.frame.number, "out of memory");
-            progress.frame_failed(job, failures.back().second);
-        } catch (const std::exception& e) {
-            failures.emplace_back(job.frame.number, one_line(e.what()));
-            progress.frame_failed(job, failures.back().second);
-        }
-    }
-    progress.finish();
+};
 
-    const std::size_t ok = jobs.size() - failures.size();
-    if (!options.quiet || !failures.empty()) {
+SequenceReport::SequenceReport(const SequencePlan& plan, const SequenceOptions& options)
+    : impl_(std::make_unique<Impl>(plan, options)) {}
+SequenceReport::~SequenceReport() = default;
+
+void SequenceReport::started(const FrameJob& job) { impl_->progress.frame_started(job); }
+
+void SequenceReport::ok(const FrameJob& job, const FrameResult& r) {
+    impl_->flips += r.level_flips;
+    impl_->compared += r.level_cells_compared;
+    impl_->progress.frame_ok(job, r.line);
+}
+
+void SequenceReport::failed(const FrameJob& job, const std::string& message) {
+    impl_->failures.emplace_back(job.frame.number, one_line(message));
+    impl_->progress.frame_failed(job, impl_->failures.back().second);
+}
+
+int SequenceReport::finish() {
+    Impl& s = *impl_;
+    s.progress.finish();
+    const std::size_t selected = s.plan.selected, skipped = s.plan.skipped;
+    const auto& failures = s.failures;
+    const std::size_t ok = s.plan.jobs.size() - failures.size();
+    if (!s.options.quiet || !failures.empty()) {
         std::string failed = std::to_string(failures.size()) + " failed";
         for (std::size_t i = 0; i < failures.size() && i < 3; ++i)
             failed += (i == 0 ? " (frame " : ", frame ") + failures[i].first + ": " + failures[i].second;
         if (failures.size() > 3) failed += ", and " + std::to_string(failures.size() - 3) + " more";
         if (!failures.empty()) failed += ")";
-        const double t = progress.elapsed();
+        const double t = s.progress.elapsed();
         std::printf("%zu frames: %zu ok, %s, %zu skipped; %.1f s, %.2f frames/s\n", selected, ok, failed.c_str(), skipped,
-                    t, t > 0 ? double(jobs.size()) / t : 0.0);
-        if (compared > 0)
-            std::printf("level changes between consecutive frames: %zu of %zu coarse cells (%.4f%%)\n", flips, compared,
-                        100.0 * double(flips) / double(compared));
+                    t, t > 0 ? double(s.plan.jobs.size()) / t : 0.0);
+        if (s.compared > 0)
+            std::printf("level changes between consecutive frames: %zu of %zu coarse cells (%.4f%%)\n", s.flips, s.compared,
+                        100.0 * double(s.flips) / double(s.compared));
         std::fflush(stdout);
     }
     if (failures.empty()) return 0;
     std::fprintf(stderr, "trilevel: error: %zu of %zu frames failed\n", failures.size(), selected);
     return 1;
+}
+
+int run_frame_sequence(const SequencePlan& plan, const SequenceOptions& options,
+                       const std::function<FrameResult(const FrameJob&)>& work) {
+    SequenceReport report(plan, options);
+    for (const FrameJob& job : plan.jobs) {
+        report.started(job);
+        std::exception_ptr error;
+        try {
+            report.ok(job, work(job));
+            continue;
+        } catch (...) {
+            error = std::current_exception();
+        }
+        report.failed(job, failure_message(error));
+    }
+    return report.finish();
 }
 
 }  // namespace trilevel::cli

@@ -7,7 +7,9 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <exception>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -76,10 +78,30 @@ struct SequencePlan {
 SequencePlan plan_frame_sequence(const std::string& input, const std::string& output, const std::string& stats,
                                  const SequenceOptions& options);
 
-/// Processes the planned frames in order: `work` turns a job into its outputs; a std::exception
-/// it throws fails that frame only. Reports progress (a bar on a terminal, else one line per
-/// frame on stdout) and a summary with the share of coarse cells that changed level between
-/// consecutive frames. Returns the exit status: 0 when no frame failed, 1 otherwise.
+/// The message a failed frame reports for what it threw ("out of memory" for std::bad_alloc).
+std::string failure_message(std::exception_ptr error);
+
+/// Progress and summary of a run over planned frames, fed in frame order (from any one thread at
+/// a time): a bar on a terminal, else one line per frame on stdout; one stderr line per failure;
+/// then a summary with the share of coarse cells that changed level between consecutive frames.
+class SequenceReport {
+public:
+    SequenceReport(const SequencePlan& plan, const SequenceOptions& options);
+    ~SequenceReport();
+    /// The bar names the frame being worked on (frames can take seconds each).
+    void started(const FrameJob& job);
+    void ok(const FrameJob& job, const FrameResult& result);
+    void failed(const FrameJob& job, const std::string& message);
+    /// Prints the summary; returns the exit status: 0 when no frame failed, 1 otherwise.
+    int finish();
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+/// Processes the planned frames in order, one at a time: `work` turns a job into its outputs; a
+/// std::exception it throws fails that frame only. Reports as SequenceReport; returns its status.
 int run_frame_sequence(const SequencePlan& plan, const SequenceOptions& options,
                        const std::function<FrameResult(const FrameJob&)>& work);
 

@@ -28,6 +28,7 @@
 #include "frame_sequence.hpp"
 #include "io/io_common.hpp"
 #include "trilevel/io.hpp"
+#include "trilevel/pipeline.hpp"
 #include "trilevel/trilevel.hpp"
 
 namespace {
@@ -207,37 +208,26 @@ void say_compiling(const trilevel::KernelCompileNotice& n) {
                      n.cache_dir.c_str());
 }
 
-/// One input file -> one mesh (and stats) file. Prints the summary unless quiet or `result` is
-/// given, which receives a one-line summary and the level changes instead (frame sequences).
-/// `rec` is created with the first input: OpenCL starts (device, cached kernels) on this thread
-/// while the file is read on another, and a bad file is still the error reported when both fail.
-/// (The reverse, OpenCL on the second thread, made ASan's teardown of that thread fail.)
-void reconstruct_file(std::optional<trilevel::Reconstructor>& rec, const trilevel::Params& params, const ReconstructArgs& a,
-                      const std::string& input, const std::string& output, const std::string& stats_path,
-                      trilevel::cli::FrameResult* result = nullptr) {
-    const auto start = std::chrono::steady_clock::now();
+/// A frame's particles: one-line Error for a file that fails to read or holds none. Warns about
+/// particles dropped for NaN/Inf coordinates (--drop-invalid).
+trilevel::ParticleSet read_input(const ReconstructArgs& a, const std::string& input) {
     trilevel::ReadOptions read_options;
     read_options.attributes = a.attributes;
     read_options.drop_invalid = a.drop_invalid;
     // The reader returns the --attribute names in their order (an Error names a missing one).
-    auto reading = std::async(std::launch::async, [&] { return trilevel::read_particles(input, read_options); });
-    std::exception_ptr start_failure;
-    if (!rec) {  // compiled kernels and buffers are reused across frames
-        try {
-            rec.emplace(a.device, say_compiling);
-        } catch (...) {
-            start_failure = std::current_exception();
-        }
-    }
-    trilevel::ParticleSet particles = reading.get();  // a bad file first
-    if (start_failure) std::rethrow_exception(start_failure);
+    trilevel::ParticleSet particles = trilevel::read_particles(input, read_options);
     if (particles.dropped_invalid > 0)
         std::fprintf(stderr, "warning: %s: dropped %zu particles with NaN/Inf coordinates\n", input.c_str(), particles.dropped_invalid);
     if (particles.size() == 0) throw trilevel::Error(input + ": holds no particles");
-    trilevel::Stats stats;
-    const std::size_t count = particles.size();
-    // The positions are handed over: the library frees them once they are on the device.
-    const trilevel::Mesh mesh = rec->reconstruct(std::move(particles.positions), params, &stats, particles.attributes);
+    return particles;
+}
+
+/// Writes a frame's mesh (and stats) file. Prints the summary unless quiet or `result` is given,
+/// which receives a one-line summary and the level changes instead (frame sequences). `wall_ms`:
+/// the time the frame took when the stats hold no total.
+void write_outputs(const trilevel::Params& params, const ReconstructArgs& a, const std::string& input, const std::string& output,
+                   const std::string& stats_path, const trilevel::Mesh& mesh, const trilevel::Stats& stats, double wall_ms,
+                   trilevel::cli::FrameResult* result) {
     trilevel::MeshWriteOptions options;
     options.color_levels = a.color_levels;
     trilevel::write_mesh(output, mesh, options);
@@ -247,11 +237,11 @@ void reconstruct_file(std::optional<trilevel::Reconstructor>& rec, const trileve
         out.write("\n");
         out.commit();
     }
-    const double wall = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    const std::size_t count = stats.particles;
     if (result) {
         char buf[160];
         std::snprintf(buf, sizeof buf, "%zu particles, %zu triangles, %s, %.0f ms", count, mesh.triangle_count(),
-                      stats.closed ? "closed" : "NOT closed", total_ms(stats, wall));
+                      stats.closed ? "closed" : "NOT closed", total_ms(stats, wall_ms));
         result->line = buf;
         if (stats.level_history)
             result->line += ", " + std::to_string(stats.level_flips) + " of " + std::to_string(stats.level_cells_compared) +
@@ -262,7 +252,7 @@ void reconstruct_file(std::optional<trilevel::Reconstructor>& rec, const trileve
         std::printf("particles: %zu\nsurface cells: %zu (level 2: %zu, level 3: %zu)\ntriangles: %zu\nclosed: %s\n"
                     "total time: %.1f ms\noutput: %s\n",
                     count, stats.surface_cells, stats.surface_cells_level2, stats.surface_cells_level3,
-                    mesh.triangle_count(), stats.closed ? "yes" : "no", total_ms(stats, wall), output.c_str());
+                    mesh.triangle_count(), stats.closed ? "yes" : "no", total_ms(stats, wall_ms), output.c_str());
     if (!a.quiet && !result) {
         if (params.particle_box) std::printf("particles outside --particle-box: %zu\n", stats.particles_outside_box);
         if (params.remove_components_below > 0) std::printf("components removed: %zu\n", stats.components_removed);
@@ -270,6 +260,99 @@ void reconstruct_file(std::optional<trilevel::Reconstructor>& rec, const trileve
     }
     if (params.clip_box && mesh.triangle_count() == 0)
         std::fprintf(stderr, "warning: %s: --clip-box holds no part of the surface, the mesh is empty\n", input.c_str());
+}
+
+/// Reads `input` on another thread while `rec`, when empty, is created on this one: OpenCL starts
+/// (device, cached kernels) while the file is read, and a bad file is still the error reported when
+/// both fail. (The reverse, OpenCL on the second thread, made ASan's teardown of that thread fail.)
+trilevel::ParticleSet read_while_starting(std::optional<trilevel::Reconstructor>& rec, const ReconstructArgs& a,
+                                         const std::string& input) {
+    auto reading = std::async(std::launch::async, [&] { return read_input(a, input); });
+    std::exception_ptr start_failure;
+    if (!rec) {  // compiled kernels and buffers are reused across frames
+        try {
+            rec.emplace(a.device, say_compiling);
+        } catch (...) {
+            start_failure = std::current_exception();
+        }
+    }
+    trilevel::ParticleSet particles = reading.get();  // a bad file first
+    if (start_failure) std::rethrow_exception(start_failure);
+    return particles;
+}
+
+/// One input file -> one mesh (and stats) file, one step after the other; `result` as in write_outputs.
+void reconstruct_file(std::optional<trilevel::Reconstructor>& rec, const trilevel::Params& params, const ReconstructArgs& a,
+                      const std::string& input, const std::string& output, const std::string& stats_path,
+                      trilevel::cli::FrameResult* result = nullptr) {
+    const auto start = std::chrono::steady_clock::now();
+    trilevel::ParticleSet particles = read_while_starting(rec, a, input);
+    trilevel::Stats stats;
+    // The positions are handed over: the library frees them once they are on the device.
+    const trilevel::Mesh mesh = rec->reconstruct(std::move(particles.positions), params, &stats, particles.attributes);
+    const double wall = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    write_outputs(params, a, input, output, stats_path, mesh, stats, wall, result);
+}
+
+/// Whether sequences are pipelined: TRILEVEL_PIPELINE=0 turns it off (one frame at a time, the
+/// lowest memory; tests compare the two).
+bool pipelining() {
+    const char* env = std::getenv("TRILEVEL_PIPELINE");
+    return !(env && std::string(env) == "0");
+}
+
+/// A frame sequence through a trilevel::FramePipeline: this thread reads frame k+1 while the
+/// pipeline's worker meshes frame k and its sink writes frame k-1 and reports it, in frame order.
+/// The meshes are those of one frame at a time (same Reconstructor, same order). Returns nullopt,
+/// having done nothing, when the OpenCL device cannot be opened: the caller then runs one frame at
+/// a time, which reports that error for every frame as before.
+std::optional<int> run_pipelined_sequence(const trilevel::cli::SequencePlan& plan, const trilevel::cli::SequenceOptions& options,
+                                          const trilevel::Params& params, const ReconstructArgs& a) {
+    using trilevel::cli::FrameJob;
+    const std::vector<FrameJob>& jobs = plan.jobs;
+    std::optional<trilevel::Reconstructor> rec;
+    std::optional<trilevel::ParticleSet> first;
+    std::exception_ptr first_failure;
+    try {
+        first = read_while_starting(rec, a, jobs.front().input);
+    } catch (...) {
+        first_failure = std::current_exception();
+    }
+    if (!rec) return std::nullopt;
+
+    trilevel::cli::SequenceReport report(plan, options);
+    trilevel::FramePipeline pipeline(*rec, params, [&](trilevel::PipelineFrame& f) {
+        const FrameJob& job = jobs[f.index];
+        std::exception_ptr error = f.error;
+        if (!error) {
+            try {
+                trilevel::cli::FrameResult result;
+                write_outputs(params, a, job.input, job.output, job.stats, f.mesh, f.stats, 0.0, &result);
+                report.ok(job, result);
+            } catch (...) {
+                error = std::current_exception();
+            }
+        }
+        if (error) report.failed(job, trilevel::cli::failure_message(error));
+        if (f.index + 1 < jobs.size()) report.started(jobs[f.index + 1]);
+    });
+    report.started(jobs.front());
+    for (std::size_t i = 0; i < jobs.size(); ++i) {
+        std::exception_ptr failure = i == 0 ? first_failure : nullptr;
+        trilevel::ParticleSet particles;
+        if (i == 0 && first) particles = std::move(*first);
+        else if (i > 0) {
+            try {
+                particles = read_input(a, jobs[i].input);
+            } catch (...) {
+                failure = std::current_exception();
+            }
+        }
+        if (failure) pipeline.push_failed(failure);
+        else pipeline.push(std::move(particles.positions), std::move(particles.attributes));
+    }
+    pipeline.finish();
+    return report.finish();
 }
 
 int run_reconstruct(const ReconstructArgs& a) {
@@ -296,6 +379,8 @@ int run_reconstruct(const ReconstructArgs& a) {
     options.quiet = a.quiet;
     options.progress_bar = ::isatty(STDERR_FILENO) != 0;
     const auto plan = trilevel::cli::plan_frame_sequence(a.input, a.output, a.stats, options);
+    if (pipelining() && !plan.jobs.empty())
+        if (const std::optional<int> status = run_pipelined_sequence(plan, options, params, a)) return *status;
     std::optional<trilevel::Reconstructor> rec;  // one for the whole run, from its first frame: no level
                                                  // history before that frame
     return trilevel::cli::run_frame_sequence(plan, options, [&](const trilevel::cli::FrameJob& job) {
@@ -500,7 +585,8 @@ int run(int argc, char** argv) {
     rec->add_option("--attribute", ra.attributes,
                     "Particle attribute to interpolate at the vertices (e.g. velocity; .vtk/.vtu/.bgeo input; repeatable)")
         ->allow_extra_args(false);  // one name per --attribute, so a following input file stays positional
-    rec->add_option("--memory-limit", ra.memory, "Budget for the largest allocations, bytes or e.g. 2G");
+    rec->add_option("--memory-limit", ra.memory, "Budget for the largest allocations, bytes or e.g. 2G (a sequence: each frame's, "
+                    "less the next frame read ahead and the previous mesh being written)");
     rec->add_flag("-q,--quiet", ra.quiet, "Print nothing on success");
     rec->add_option("--level-hysteresis", ra.hysteresis,
                     "Sequences, adaptive mode: a cell keeps its previous level until its curvature passes the "

@@ -18,6 +18,7 @@
 #include <pybind11/stl.h>
 
 #include "trilevel/io.hpp"
+#include "trilevel/pipeline.hpp"
 #include "trilevel/trilevel.hpp"
 
 namespace py = pybind11;
@@ -194,6 +195,77 @@ struct PyReconstructor {
     std::mutex mutex;
 };
 
+/// trilevel.FramePipeline: a simulator's frames meshed on a worker thread (trilevel/pipeline.hpp)
+/// while Python steps the next one; finished frames are collected here and handed back by push()
+/// and finish() on the caller's thread, so no Python code runs on the pipeline's threads.
+struct PyFramePipeline {
+    PyFramePipeline(PyReconstructor& rec, float particle_radius, const ReconstructOptions& o)
+        : params(make_params(particle_radius, o)) {
+        pipe.emplace(rec.rec, params, [this](trilevel::PipelineFrame& f) {
+            std::lock_guard<std::mutex> lock(mutex);
+            done.push_back(std::move(f));
+        });
+    }
+    ~PyFramePipeline() {
+        py::gil_scoped_release nogil;  // the worker may still be meshing
+        pipe.reset();
+    }
+
+    py::list push(const Array<float>& positions) {
+        const std::size_t n = rows_of_three(positions, "positions");
+        std::vector<float> xyz(positions.data(), positions.data() + 3 * n);
+        {
+            py::gil_scoped_release nogil;
+            pipe->push(std::move(xyz));
+        }
+        return take();
+    }
+
+    py::list finish() {
+        {
+            py::gil_scoped_release nogil;
+            pipe->finish();
+        }
+        return take();
+    }
+
+    /// The frames finished so far: (index, vertices, triangles, stats[, normals]), or
+    /// (index, None, None, message) for a frame that failed.
+    py::list take() {
+        std::vector<trilevel::PipelineFrame> frames;
+        {
+            std::lock_guard<std::mutex> lock(mutex);
+            frames.swap(done);
+        }
+        py::list out;
+        for (auto& f : frames) {
+            if (f.error) {
+                std::string message;
+                try {
+                    std::rethrow_exception(f.error);
+                } catch (const std::exception& e) {
+                    message = e.what();
+                }
+                out.append(py::make_tuple(f.index, py::none(), py::none(), message));
+                continue;
+            }
+            py::list t;
+            t.append(f.index);
+            t.append(to_numpy(std::move(f.mesh.positions), 3));
+            t.append(to_numpy(std::move(f.mesh.triangles), 3));
+            t.append(py::module_::import("json").attr("loads")(trilevel::stats_to_json(f.stats, params)));
+            if (params.normals != trilevel::NormalMode::None) t.append(to_numpy(std::move(f.mesh.normals), 3));
+            out.append(py::tuple(t));
+        }
+        return out;
+    }
+
+    trilevel::Params params;
+    std::mutex mutex;
+    std::vector<trilevel::PipelineFrame> done;
+    std::optional<trilevel::FramePipeline> pipe;
+};
+
 /// The types of ReconstructOptions' fields, in order: the bound functions take these after
 /// positions and particle_radius and build the struct from them (aggregate initialisation).
 using OptionTypes = std::tuple<std::string, float, float, float, float, std::uint64_t, float, std::string, float,
@@ -303,6 +375,42 @@ PYBIND11_MODULE(_trilevel, m) {
         "\n\ndevice: as for Reconstructor. For frame sequences, reuse a trilevel.Reconstructor instead: it "
         "compiles the kernels once (and remembers the levels for level_hysteresis).";
     define_reconstruct(cls, m, kReconstructDoc, one_shot_doc.c_str(), static_cast<OptionTypes*>(nullptr));
+
+    py::class_<PyFramePipeline>(m, "FramePipeline", R"(Meshes a sequence's frames on a worker thread while the caller
+produces the next (a simulator steps it): push(positions) hands frame k over and returns once frame
+k - 1 is meshed, with the frames finished so far. The meshes, stats and level history are those of
+calling reconstructor.reconstruct frame by frame with the same options (bit for bit). One input and
+one mesh more than one frame at a time are alive; memory_limit counts them.
+
+reconstructor: a trilevel.Reconstructor, not to be used otherwise until finish().
+particle_radius and the keyword options: as for reconstruct (no attributes or return_levels).
+
+push(positions) and finish() return lists of (index, vertices, triangles, stats[, normals]) in frame
+order (index: 0 for the first push), or (index, None, None, message) for a frame that failed (the
+next frames go on). finish() waits for every frame; no push after it.)")
+        .def(py::init([](PyReconstructor& rec, float particle_radius, std::string mode, float cell, float kernel_radius,
+                         float curvature_threshold, float level2_tolerance, std::uint64_t memory_limit, float level_hysteresis,
+                         std::string crack_closing, std::optional<std::string> normals) {
+                 ReconstructOptions o;
+                 o.mode = std::move(mode);
+                 o.cell = cell;
+                 o.kernel_radius = kernel_radius;
+                 o.curvature_threshold = curvature_threshold;
+                 o.level2_tolerance = level2_tolerance;
+                 o.memory_limit = memory_limit;
+                 o.level_hysteresis = level_hysteresis;
+                 o.crack_closing = std::move(crack_closing);
+                 o.normals = std::move(normals);
+                 return std::make_unique<PyFramePipeline>(rec, particle_radius, o);
+             }),
+             py::arg("reconstructor"), py::arg("particle_radius"), py::kw_only(), py::arg("mode") = "adaptive",
+             py::arg("cell") = 1.0f, py::arg("kernel_radius") = 4.0f, py::arg("curvature_threshold") = 0.0f,
+             py::arg("level2_tolerance") = trilevel::Params{}.level2_tolerance, py::arg("memory_limit") = 0,
+             py::arg("level_hysteresis") = 0.0f, py::arg("crack_closing") = "collapse", py::arg("normals") = py::none(),
+             py::keep_alive<1, 2>())
+        .def("push", &PyFramePipeline::push, py::arg("positions"),
+             "Hands the next frame's (n, 3) positions over (copied); returns the frames finished so far.")
+        .def("finish", &PyFramePipeline::finish, "Waits for every frame; returns the frames not yet returned.");
 
     m.def("devices", [] {
         py::list out;

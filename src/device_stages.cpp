@@ -153,11 +153,7 @@ std::uint64_t order_bins(const Mapped<cl_uint>& counts, const Mapped<cl_ulong>& 
 
 BinnedParticles bin_particles(OpenCLRuntime& rt, const float* xyz, std::size_t particles, glm::dvec3 origin, float cell,
                               const std::function<void()>& uploaded) {
-    BinnedParticles b;
-    b.count = particles;
-    b.cell = cell;
-    const cl_uint n = cl_uint(b.count);
-    const float inv_cell = 1.0f / cell;
+    const cl_uint n = cl_uint(particles);
     DeviceBuffer pos = rt.buffer(n * sizeof(glm::vec3), "particle positions");  // packed xyz
     {
         const Mapped<glm::vec3> p(rt, pos, n, CL_MAP_WRITE_INVALIDATE_REGION);
@@ -167,6 +163,15 @@ BinnedParticles bin_particles(OpenCLRuntime& rt, const float* xyz, std::size_t p
         });
     }
     if (uploaded) uploaded();
+    return bin_positions(rt, std::move(pos), particles, cell);
+}
+
+BinnedParticles bin_positions(OpenCLRuntime& rt, DeviceBuffer pos, std::size_t particles, float cell) {
+    BinnedParticles b;
+    b.count = particles;
+    b.cell = cell;
+    const cl_uint n = cl_uint(b.count);
+    const float inv_cell = 1.0f / cell;
     DeviceBuffer slot_of = rt.buffer(n * sizeof(cl_int), "particle bins");
 
     b.bins = insert_growing(rt, std::size_t(float(b.count) * constants::kBinSlotsPerParticle), "particle bin hash", false, [&](DeviceHash& h) {

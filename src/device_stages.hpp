@@ -40,6 +40,9 @@ struct BinnedParticles {
 /// called once `xyz` is no longer read (the caller may free it there).
 BinnedParticles bin_particles(OpenCLRuntime& rt, const float* xyz, std::size_t n, glm::dvec3 origin, float cell,
                               const std::function<void()>& uploaded = {});
+/// Stage 1 on positions already on the device: `pos` (role "particle positions") holds `n`
+/// packed x, y, z relative to the lattice origin (device_input.hpp fills it from a caller's buffer).
+BinnedParticles bin_positions(OpenCLRuntime& rt, DeviceBuffer pos, std::size_t n, float cell);
 
 /// Stage 2: colour-field gradient per sorted particle; flags bit 0 surface, bit 1 splash, bit 2 thin.
 struct ParticleClasses {

@@ -139,6 +139,49 @@ OpenCLRuntime::OpenCLRuntime(int device, std::function<void(const KernelCompileN
     } catch (const cl::Error& e) {
         throw Error("cannot open OpenCL device '" + info_.name + "': " + e.what() + " " + cl_error_name(e.err()));
     }
+    init();
+} catch (const cl::Error& e) {
+    throw Error(std::string("cannot set up the OpenCL device: ") + e.what() + " returned " + cl_error_name(e.err()));
+}
+
+OpenCLRuntime::OpenCLRuntime(cl_context context, cl_device_id device, cl_command_queue queue) try {
+    if (!context) throw Error("no OpenCL context given (null cl_context)");
+    if (!device) throw Error("no OpenCL device given (null cl_device_id)");
+    context_ = cl::Context(context, true);  // retain: ours until the runtime goes
+    device_ = cl::Device(device, true);
+    const auto in_context = context_.getInfo<CL_CONTEXT_DEVICES>();
+    if (std::none_of(in_context.begin(), in_context.end(), [&](const cl::Device& d) { return d() == device; }))
+        throw Error("the OpenCL device is not one of the given context's devices");
+    const cl::Platform platform(device_.getInfo<CL_DEVICE_PLATFORM>());
+    int index = -1;  // its place in `trilevel devices`, if the ICD loader lists it
+    try {
+        const auto all = all_devices(nullptr);
+        for (std::size_t i = 0; i < all.size(); ++i)
+            if (all[i]() == device) index = int(i);
+    } catch (const Error&) {
+    }
+    info_ = describe(device_, index, platform.getInfo<CL_PLATFORM_NAME>());
+    if (!info_.int64_atomics)
+        throw Error("OpenCL device '" + info_.name + "' lacks cl_khr_int64_base_atomics, which the fine-point hash needs");
+    if (queue) {
+        queue_ = cl::CommandQueue(queue, true);
+        if (queue_.getInfo<CL_QUEUE_CONTEXT>()() != context || queue_.getInfo<CL_QUEUE_DEVICE>()() != device)
+            throw Error("the OpenCL command queue belongs to another context or device than those given");
+        const cl_command_queue_properties props = queue_.getInfo<CL_QUEUE_PROPERTIES>();
+        // Stages enqueue one after the other and rely on the queue's order.
+        if (props & CL_QUEUE_OUT_OF_ORDER_EXEC_MODE_ENABLE)
+            throw Error("the OpenCL command queue executes out of order; give an in-order queue (or none: one is made)");
+        profiling_ = (props & CL_QUEUE_PROFILING_ENABLE) != 0;
+    } else {
+        queue_ = cl::CommandQueue(context_, device_, CL_QUEUE_PROFILING_ENABLE);
+    }
+    init();
+} catch (const cl::Error& e) {
+    throw Error(std::string("cannot set up the given OpenCL device: ") + e.what() + " returned " + cl_error_name(e.err()));
+}
+
+void OpenCLRuntime::init() {
+    fp64_ = device_.getInfo<CL_DEVICE_EXTENSIONS>().find("cl_khr_fp64") != std::string::npos;
     work_group_ = std::min(work_group_, device_.getInfo<CL_DEVICE_MAX_WORK_GROUP_SIZE>());
     if (const char* env = std::getenv("TRILEVEL_WORK_GROUP"); env && *env) work_group_ = std::strtoul(env, nullptr, 10);
     // Two float4 lists plus the bin tables and the scalar field's claimed-point list (4 KiB).
@@ -147,8 +190,6 @@ OpenCLRuntime::OpenCLRuntime(int device, std::function<void(const KernelCompileN
     if (const char* env = std::getenv("TRILEVEL_MAX_CANDIDATES"); env && *env)  // tests: force the fallbacks
         max_candidates_ = std::min<std::size_t>(max_candidates_, std::max(1ul, std::strtoul(env, nullptr, 10)));
     programs_.emplace(32, build_program(32));
-} catch (const cl::Error& e) {
-    throw Error(std::string("cannot set up the OpenCL device: ") + e.what() + " returned " + cl_error_name(e.err()));
 }
 
 /// gather_candidates (particle_binning.cl): one work-item copies on CPU devices, all of them on
@@ -177,8 +218,11 @@ cl::Program OpenCLRuntime::build_program(int bits) {
         total = std::max(total, 0.0) + std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     };
     std::string source;
-    for (const char* f : kKernelFiles) source += std::string(embedded_kernel_source(f)) + "\n";
-    const std::string options = build_options(max_candidates_, serial_gather()) + " -DFINE_KEY_BITS=" + std::to_string(bits);
+    if (bits == 0) source = std::string(embedded_kernel_source("device_input")) + "\n";
+    else
+        for (const char* f : kKernelFiles) source += std::string(embedded_kernel_source(f)) + "\n";
+    const std::string options = bits == 0 ? std::string("-cl-std=CL1.2")
+                                          : build_options(max_candidates_, serial_gather()) + " -DFINE_KEY_BITS=" + std::to_string(bits);
     // The cached binary of exactly this source, these options and this device and driver, if any
     // (program_cache.hpp); one the driver rejects is rebuilt from source and replaced.
     const std::string dir = program_cache_dir();
@@ -220,11 +264,12 @@ void OpenCLRuntime::set_fine_key_bits(int bits) {
 }
 
 cl::Kernel& OpenCLRuntime::kernel(const std::string& name) {
-    const auto id = std::make_pair(fine_key_bits_, name);
+    const bool input = name == "positions_bounds" || name == "gather_positions";  // device_input.cl
+    const auto id = std::make_pair(input ? 0 : fine_key_bits_, name);
     auto it = kernels_.find(id);
     if (it != kernels_.end()) return it->second;
-    auto program = programs_.find(fine_key_bits_);
-    if (program == programs_.end()) program = programs_.emplace(fine_key_bits_, build_program(fine_key_bits_)).first;
+    auto program = programs_.find(id.first);
+    if (program == programs_.end()) program = programs_.emplace(id.first, build_program(id.first)).first;
     return kernels_.emplace(id, cl::Kernel(program->second, name.c_str())).first->second;
 }
 
@@ -295,6 +340,7 @@ void OpenCLRuntime::run_groups(const std::string& name, std::size_t groups, std:
 void OpenCLRuntime::finish() {
     maybe_fail("clFinish");
     queue_.finish();
+    if (!profiling_) events_.clear();  // a caller's queue without profiling: no kernel times
     for (auto& [name, ev] : events_) {
         auto start = ev.getProfilingInfo<CL_PROFILING_COMMAND_START>();
         auto end = ev.getProfilingInfo<CL_PROFILING_COMMAND_END>();

@@ -22,12 +22,18 @@ public:
     /// device < 0: TRILEVEL_DEVICE, else the first GPU, else the first CPU device.
     /// on_compile: called before a program is compiled from source (Reconstructor's constructor).
     explicit OpenCLRuntime(int device, std::function<void(const KernelCompileNotice&)> on_compile = {});
+    /// On a caller's context and device (both retained); `queue` null: a queue of our own on them,
+    /// else that queue (retained), which must execute in order.
+    OpenCLRuntime(cl_context context, cl_device_id device, cl_command_queue queue);
 
     const DeviceInfo& info() const { return info_; }
     cl::Context& context() { return context_; }
     cl::CommandQueue& queue() { return queue_; }
-    /// Kernel `name` of the program built for the current fine-key width (set_fine_key_bits).
+    /// Kernel `name` of the program built for the current fine-key width (set_fine_key_bits); the
+    /// kernels of device_input.cl come from a program of their own, built on first use.
     cl::Kernel& kernel(const std::string& name);
+    /// Whether the device computes in double precision (cl_khr_fp64; device_input.cl needs it).
+    bool has_fp64() const { return fp64_; }
     /// Which program the kernels come from: FINE_KEY_BITS 32 (the default, built at start) or 64
     /// (built on first use, for lattices too wide for 32-bit keys: lattice::KeyLayout). Only the
     /// fine-point kernels differ between the two.
@@ -100,7 +106,9 @@ public:
 
 private:
     /// The program of fine-key width `bits`: from the on-disk cache when it holds it, else from source.
+    /// Bits 0: the device-input program (kernels/device_input.cl).
     cl::Program build_program(int bits);
+    void init();  ///< the rest of construction, once device_, context_ and queue_ are set
     std::optional<cl::Program> build_from_binary(std::optional<std::vector<unsigned char>> binary,
                                                  const std::string& options);
     bool serial_gather() const;
@@ -122,6 +130,8 @@ private:
     bool program_from_cache_ = false;
     std::function<void(const KernelCompileNotice&)> on_compile_;
     ProgramBuildTimes build_times_;
+    bool profiling_ = true;  ///< the queue records kernel times (a caller's queue may not)
+    bool fp64_ = false;
     BufferPool pool_;
     std::uint64_t budget_ = 0, peak_lent_ = 0;
     std::uint64_t ram_room_ = 0;      ///< CPU devices: MemAvailable at reset_budget (0: no check)

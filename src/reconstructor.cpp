@@ -18,6 +18,7 @@
 #include <tbb/task_arena.h>
 
 #include "band_closure.hpp"
+#include "device_input.hpp"
 #include "device_stages.hpp"
 #include "domain_split.hpp"
 #include "io/io_common.hpp"
@@ -335,7 +336,11 @@ bool same_levels_frame(const Params& a, const Params& b) {
 
 struct Reconstructor::Impl {
     Impl(int device, std::function<void(const KernelCompileNotice&)> on_compile) : rt(device, std::move(on_compile)) {}
+    Impl(cl_context c, cl_device_id d, cl_command_queue q) : rt(c, d, q) {}
     OpenCLRuntime rt;
+    /// The caller's buffer during reconstruct(DevicePositions) (the `xyz` of frame() is null then).
+    std::optional<DeviceInput> device_in;
+    std::vector<float> read_back;  ///< its copy where the device path cannot be taken (frame())
     LevelHistory history;  ///< levels of the previous frame (adaptive mode)
     /// Positions handed over by reconstruct(std::vector<float>&&), freed once run() has uploaded
     /// them (null: none, or normals or attributes read them later).
@@ -434,6 +439,19 @@ void append(Mesh& into, Mesh&& m) {
 /// Checks the radius against the particles, then runs the pipeline on radius-normalised lengths
 /// when the radius is outside the band the float kernels handle (length_scale_exponent).
 Mesh Reconstructor::Impl::frame(const float* xyz, std::size_t n, const Params& p, Stats& s) {
+    if (device_in) {  // a caller's buffer: bounds and binning input on the device (device_input.hpp)
+        rt.set_stage("binning");
+        const Bounds b = device_bounds(rt, *device_in);
+        validate_against(p, b);
+        user_radius = p.particle_radius;
+        if (rt.has_fp64() && length_scale_exponent(p.particle_radius) == 0) {
+            const Grid g = make_grid(p, b);
+            if (g.extent_steps <= lattice_capacity_steps()) return run(nullptr, n, p, g, s);
+        }
+        read_back = read_device_positions(rt, *device_in);  // scaled or split on the host
+        device_in.reset();
+        return frame(read_back.data(), n, p, s);
+    }
     const Bounds b = bounds_of(xyz, n);
     validate_against(p, b);
     user_radius = p.particle_radius;
@@ -501,7 +519,8 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
 
     rt.set_stage("binning");
     check_host(double(n) * sizeof(glm::vec4), host, "uploading " + std::to_string(n) + " particles");
-    BinnedParticles bins = bin_particles(rt, xyz, n, g.origin, R, [&] { release_input(xyz); });
+    BinnedParticles bins = device_in ? bin_device_positions(rt, *device_in, g.origin, R)
+                                     : bin_particles(rt, xyz, n, g.origin, R, [&] { release_input(xyz); });
     bins.order = DeviceBuffer{};  // sorted -> input index: only the tests read it
     // Neighbour sums cost sum(count^2) over bins of edge R; at a rest spacing of 2r a bin holds
     // (K/2)^3 particles. Far more means every particle sees thousands of others: a radius far too
@@ -585,6 +604,8 @@ void Reconstructor::Impl::remember_levels(const std::vector<CoarseCell>& cells, 
 
 Reconstructor::Reconstructor(int device, std::function<void(const KernelCompileNotice&)> on_compile)
     : impl_(std::make_unique<Impl>(device, std::move(on_compile))) {}
+Reconstructor::Reconstructor(_cl_context* context, _cl_device_id* device, _cl_command_queue* queue)
+    : impl_(std::make_unique<Impl>(context, device, queue)) {}
 Reconstructor::~Reconstructor() = default;
 Reconstructor::Reconstructor(Reconstructor&&) noexcept = default;
 Reconstructor& Reconstructor::operator=(Reconstructor&&) noexcept = default;
@@ -593,6 +614,38 @@ void Reconstructor::reset_history() { impl_->history.reset(); }
 
 Mesh Reconstructor::reconstruct(const float* xyz, std::size_t count, const Params& params, Stats* stats) {
     return reconstruct(xyz, count, params, stats, {});
+}
+
+Mesh Reconstructor::reconstruct(const DevicePositions& d, const Params& params, Stats* stats) {
+    OpenCLRuntime& rt = impl_->rt;
+    if (d.count == 0) throw Error("no particles to reconstruct (the input is empty)");
+    std::vector<float> host;  // the positions, where the device path cannot be taken
+    try {
+        DeviceInput in = device_input(rt, d.buffer, d.count, d.offset, d.stride);
+        if (!d.wait_for.empty()) {
+            std::vector<cl::Event> events;
+            for (_cl_event* e : d.wait_for) events.emplace_back(e, true);
+            rt.queue().enqueueBarrierWithWaitList(&events);
+        }
+        if (params.normals != NormalMode::Gradient) {
+            impl_->device_in = std::move(in);
+        } else {
+            host = read_device_positions(rt, in);  // the gradient normals read the particles on the host
+        }
+    } catch (const cl::Error& e) {
+        rt.recover();
+        throw Error(std::string("OpenCL failure reading the device positions: ") + e.what() + " returned " +
+                    cl_error_name(e.err()) + cl_error_advice(e.err()));
+    }
+    if (!impl_->device_in) return reconstruct(std::move(host), params, stats);
+    struct Forget {  // whatever happens, the Impl keeps neither the caller's buffer nor its copy
+        Impl& impl;
+        ~Forget() {
+            impl.device_in.reset();
+            std::vector<float>().swap(impl.read_back);
+        }
+    } forget{*impl_};
+    return reconstruct(static_cast<const float*>(nullptr), d.count, params, stats, {});
 }
 
 Mesh Reconstructor::reconstruct(std::vector<float>&& xyz, const Params& params, Stats* stats,

@@ -17,6 +17,14 @@
 #include <utility>
 #include <vector>
 
+// The OpenCL handle types as <CL/cl.h> declares them (cl_context is `struct _cl_context*`, ...):
+// a caller's OpenCL objects can be passed without this header including OpenCL's.
+struct _cl_context;
+struct _cl_device_id;
+struct _cl_command_queue;
+struct _cl_mem;
+struct _cl_event;
+
 namespace trilevel {
 
 /// Every failure the library reports: a one-line message naming the problem.
@@ -199,8 +207,21 @@ struct DeviceInfo {
 /// Lists every OpenCL device of every platform. Throws Error when no platform exists.
 std::vector<DeviceInfo> list_devices();
 
-/// Reconstructs surfaces on one OpenCL device; keeps compiled kernels and buffers across calls.
-/// Not thread-safe: use one Reconstructor per thread.
+/// Particle positions in an OpenCL buffer of the caller's (a GPU simulator's), for
+/// Reconstructor::reconstruct(const DevicePositions&, ...). Particle i's x, y, z are the three
+/// floats at byte offset + i * stride of `buffer`.
+struct DevicePositions {
+    _cl_mem* buffer = nullptr;  ///< a cl_mem of the Reconstructor's context, readable by kernels;
+                                ///< only read, and only during the call
+    std::size_t count = 0;      ///< particles
+    std::size_t offset = 0;     ///< bytes before particle 0's x; a multiple of 4
+    std::size_t stride = 12;    ///< bytes from one particle to the next, a multiple of 4 and >= 12:
+                                ///< 12 for packed float3 (x, y, z), 16 for float4 (x, y, z, w; w unread)
+    /// Events to complete before the buffer is read (a simulator's kernel on another queue of the
+    /// context); empty when the queue's order suffices. Not retained beyond the call.
+    std::vector<_cl_event*> wait_for;
+};
+
 /// Said before a Reconstructor compiles its OpenCL kernels from source because the on-disk program
 /// cache holds none for this device, driver and library version (the first run on a machine, or
 /// caching off). Compiling takes seconds (about 5 s on PoCL); a cached program loads in milliseconds.
@@ -211,6 +232,8 @@ struct KernelCompileNotice {
     std::string cache_dir;  ///< where the compiled program is kept for the next start; empty: caching is off
 };
 
+/// Reconstructs surfaces on one OpenCL device; keeps compiled kernels and buffers across calls.
+/// Not thread-safe: use one Reconstructor per thread.
 class Reconstructor {
 public:
     /// device < 0: the TRILEVEL_DEVICE environment variable, else the first GPU, else the first CPU.
@@ -218,6 +241,19 @@ public:
     /// from source instead of loaded from the cache: in the constructor, or in a reconstruct() that
     /// first needs the kernels of 64-bit fine keys (the CLI prints the first one on stderr).
     explicit Reconstructor(int device = -1, std::function<void(const KernelCompileNotice&)> on_compile = {});
+    /// Runs on a caller's OpenCL objects (a GPU simulator's), so that reconstruct(DevicePositions)
+    /// reads the caller's buffers where they are. `context` must hold `device`, which needs
+    /// cl_khr_int64_base_atomics. `queue`: an in-order command queue of that context and device
+    /// (an out-of-order one is an Error) to which every command of the Reconstructor goes, after
+    /// whatever the caller enqueued on it before each call; null: the Reconstructor makes its own
+    /// queue on the context. Stats::kernel_ms needs CL_QUEUE_PROFILING_ENABLE on the queue
+    /// (without it, it stays empty).
+    /// Lifetimes: the Reconstructor retains the context, device and queue (clRetain*) and releases
+    /// them when destroyed, so the caller may release its own references whenever it likes. Its
+    /// device buffers are allocated in that context (Params::memory_limit_bytes counts only
+    /// those) and released by the Reconstructor. The kernels are built for the device on
+    /// construction, as with the other constructor (program cache: README).
+    Reconstructor(_cl_context* context, _cl_device_id* device, _cl_command_queue* queue = nullptr);
     ~Reconstructor();
     Reconstructor(Reconstructor&&) noexcept;
     Reconstructor& operator=(Reconstructor&&) noexcept;
@@ -246,6 +282,22 @@ public:
     /// bytes a particle (the CLI uses it).
     Mesh reconstruct(std::vector<float>&& xyz, const Params& params, Stats* stats = nullptr,
                      const std::vector<ParticleAttribute>& attributes = {});
+
+    /// The same, on positions in an OpenCL buffer (DevicePositions) of this Reconstructor's
+    /// context, meshed without a host round trip: a bounds pass and a gather into the binning input
+    /// run on the device. The mesh is bit-identical to the host-array path's on the same floats.
+    /// Synchronisation: the buffer is read by commands on the Reconstructor's queue, after the
+    /// events of `positions.wait_for` and after what the queue held before the call (in order).
+    /// The call returns when all it enqueued has completed (it waits for the queue, so also for
+    /// what the caller enqueued there before), so the buffer may be written or released then.
+    /// A frame like the others for the level history. The positions are read back to the host
+    /// (count x 12 bytes, then the host path) only where the device path cannot give the same
+    /// bits: a device without cl_khr_fp64 (the lattice origin is subtracted in double precision),
+    /// Params::normals == NormalMode::Gradient (the normals read the particles on the host), a
+    /// radius outside [2^-10, 2^10] (scaled on the host) or particles too far apart for one lattice
+    /// (split on the host). Errors as for the host path (a non-finite coordinate names the
+    /// particle), plus a layout that does not fit the buffer or a buffer of another context.
+    Mesh reconstruct(const DevicePositions& positions, const Params& params, Stats* stats = nullptr);
 
     /// The OpenCL device this Reconstructor runs on.
     const DeviceInfo& device() const;

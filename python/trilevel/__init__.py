@@ -8,6 +8,7 @@ The functions and classes are those of the compiled extension `trilevel._trileve
 """
 from ._trilevel import (
     Error,
+    FramePipeline,
     Reconstructor,
     __version__,
     default_curvature_threshold,
@@ -23,6 +24,7 @@ from ._trilevel import (
 
 __all__ = [
     "Error",
+    "FramePipeline",
     "Reconstructor",
     "__version__",
     "default_curvature_threshold",

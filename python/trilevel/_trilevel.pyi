@@ -33,6 +33,9 @@ class Reconstructor:
         memory_limit: int = 0,
         level_hysteresis: float = 0.0,
         crack_closing: Literal["collapse", "patches"] = "collapse",
+        remove_components_below: float = 0.0,
+        particle_box: Sequence[float] | None = None,
+        clip_box: Sequence[float] | None = None,
         normals: None = None,
         attributes: None = None,
         return_levels: Literal[False] = False,
@@ -51,6 +54,9 @@ class Reconstructor:
         memory_limit: int = 0,
         level_hysteresis: float = 0.0,
         crack_closing: Literal["collapse", "patches"] = "collapse",
+        remove_components_below: float = 0.0,
+        particle_box: Sequence[float] | None = None,
+        clip_box: Sequence[float] | None = None,
         normals: Literal["gradient", "area"] | None = None,
         attributes: Mapping[str, ArrayLike] | None = None,
         return_levels: bool = False,
@@ -72,6 +78,9 @@ def reconstruct(
     memory_limit: int = 0,
     level_hysteresis: float = 0.0,
     crack_closing: Literal["collapse", "patches"] = "collapse",
+    remove_components_below: float = 0.0,
+    particle_box: Sequence[float] | None = None,
+    clip_box: Sequence[float] | None = None,
     normals: None = None,
     attributes: None = None,
     return_levels: Literal[False] = False,
@@ -90,11 +99,34 @@ def reconstruct(
     memory_limit: int = 0,
     level_hysteresis: float = 0.0,
     crack_closing: Literal["collapse", "patches"] = "collapse",
+    remove_components_below: float = 0.0,
+    particle_box: Sequence[float] | None = None,
+    clip_box: Sequence[float] | None = None,
     normals: Literal["gradient", "area"] | None = None,
     attributes: Mapping[str, ArrayLike] | None = None,
     return_levels: bool = False,
     device: int = -1,
 ) -> tuple[Any, ...]: ...
+class FramePipeline:
+    """Meshes a sequence's frames on a worker thread while the caller produces the next."""
+    def __init__(
+        self,
+        reconstructor: Reconstructor,
+        particle_radius: float,
+        *,
+        mode: Literal["adaptive", "uniform"] = "adaptive",
+        cell: float = 1.0,
+        kernel_radius: float = 4.0,
+        curvature_threshold: float = 0.0,
+        level2_tolerance: float = 0.32,
+        memory_limit: int = 0,
+        level_hysteresis: float = 0.0,
+        crack_closing: Literal["collapse", "patches"] = "collapse",
+        normals: Literal["gradient", "area"] | None = None,
+    ) -> None: ...
+    def push(self, positions: ArrayLike) -> list[tuple[Any, ...]]: ...
+    def finish(self) -> list[tuple[Any, ...]]: ...
+
 def devices() -> list[dict[str, Any]]: ...
 def default_curvature_threshold() -> float: ...
 @overload

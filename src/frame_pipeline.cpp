@@ -1,0 +1,198 @@
+// FramePipeline (trilevel/pipeline.hpp): a worker thread meshes, a sink thread hands meshes on;
+// each hand-off is a rendezvous (one slot, the giver waits until the taker has it), so each stage
+// holds one frame and the memory in flight stays one input and one mesh above a frame at a time.
+#include "trilevel/pipeline.hpp"
+
+#include <condition_variable>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+
+namespace trilevel {
+
+namespace {
+
+/// A one-slot hand-off between two threads: put() waits for the slot to be free, then until the
+/// taker has taken what it put; take() waits for something or for close().
+template <class T>
+class Rendezvous {
+public:
+    /// False when closed before the taker took it.
+    bool put(T&& value) {
+        std::unique_lock lock(m_);
+        cv_.wait(lock, [&] { return !slot_ || closed_; });
+        if (closed_) return false;
+        slot_.emplace(std::move(value));
+        const std::uint64_t ticket = ++put_count_;
+        cv_.notify_all();
+        cv_.wait(lock, [&] { return taken_count_ >= ticket || closed_; });
+        return taken_count_ >= ticket;
+    }
+    /// Empty once closed and drained.
+    std::optional<T> take() {
+        std::unique_lock lock(m_);
+        cv_.wait(lock, [&] { return slot_ || closed_; });
+        if (!slot_) return std::nullopt;
+        std::optional<T> v = std::move(slot_);
+        slot_.reset();
+        ++taken_count_;
+        cv_.notify_all();
+        return v;
+    }
+    /// No more put(); a take() still gets what is in the slot. `drop`: empty the slot too.
+    void close(bool drop = false) {
+        std::lock_guard lock(m_);
+        closed_ = true;
+        if (drop) slot_.reset();
+        cv_.notify_all();
+    }
+
+private:
+    std::mutex m_;
+    std::condition_variable cv_;
+    std::optional<T> slot_;
+    std::uint64_t put_count_ = 0, taken_count_ = 0;
+    bool closed_ = false;
+};
+
+std::uint64_t input_bytes(const std::vector<float>& xyz, const std::vector<ParticleAttribute>& attributes) {
+    std::uint64_t b = xyz.size() * sizeof(float);
+    for (const auto& a : attributes) b += a.values.size() * sizeof(float);
+    return b;
+}
+
+std::uint64_t mesh_bytes(const Mesh& m) {
+    std::uint64_t b = (m.positions.size() + m.normals.size()) * sizeof(float) + m.triangles.size() * sizeof(std::uint32_t) +
+                      m.vertex_level.size() + m.triangle_kind.size();
+    for (const auto& a : m.attributes) b += a.values.size() * sizeof(float);
+    return b;
+}
+
+}  // namespace
+
+struct FramePipeline::Impl {
+    struct Input {
+        std::uint64_t index = 0;
+        std::vector<float> xyz;
+        std::vector<ParticleAttribute> attributes;
+        std::exception_ptr error;
+    };
+
+    Reconstructor& rec;
+    const Params params;
+    const Sink sink;
+    Rendezvous<Input> to_worker;
+    Rendezvous<PipelineFrame> to_sink;
+    std::mutex m;
+    std::exception_ptr sink_error;  ///< the first exception of the sink: the pipeline stops
+    std::uint64_t pushed = 0;
+    bool finished = false;
+    std::thread worker, sink_thread;
+
+    Impl(Reconstructor& r, const Params& p, Sink s) : rec(r), params(p), sink(std::move(s)) {
+        sink_thread = std::thread([this] { sink_loop(); });
+        worker = std::thread([this] { worker_loop(); });
+    }
+
+    void worker_loop() {
+        std::uint64_t held_mesh = 0;  // bytes of the mesh the sink holds (the previous frame's)
+        while (std::optional<Input> in = to_worker.take()) {
+            PipelineFrame out;
+            out.index = in->index;
+            out.error = in->error;
+            if (!out.error) {
+                try {
+                    Params p = params;
+                    if (p.memory_limit_bytes) p.memory_limit_bytes = frame_limit(held_mesh, input_bytes(in->xyz, in->attributes));
+                    out.mesh = rec.reconstruct(std::move(in->xyz), p, &out.stats, in->attributes);
+                } catch (...) {
+                    out.mesh = Mesh{};
+                    out.stats = Stats{};
+                    out.error = std::current_exception();
+                }
+            }
+            in.reset();  // the attributes (the positions went to the device) before the hand-off
+            held_mesh = mesh_bytes(out.mesh);
+            if (!to_sink.put(std::move(out))) break;  // the sink failed: stop
+        }
+        to_sink.close();
+    }
+
+    /// The memory limit of a frame: the user's less the mesh the sink holds and the next input
+    /// (reserved as large as this one).
+    std::uint64_t frame_limit(std::uint64_t held_mesh, std::uint64_t next_input) const {
+        const std::uint64_t limit = params.memory_limit_bytes, in_flight = held_mesh + next_input;
+        constexpr std::uint64_t kSmallest = 4096;  // what Params validation accepts
+        if (in_flight + kSmallest > limit)
+            throw Error("memory limit of " + std::to_string(limit) + " bytes leaves nothing for this frame with " +
+                        std::to_string(in_flight) +
+                        " bytes in flight (the previous mesh being written and the next frame read ahead); raise "
+                        "the limit or process one frame at a time");
+        return limit - in_flight;
+    }
+
+    void sink_loop() {
+        while (std::optional<PipelineFrame> f = to_sink.take()) {
+            try {
+                sink(*f);
+            } catch (...) {
+                {
+                    std::lock_guard lock(m);
+                    sink_error = std::current_exception();
+                }
+                to_sink.close(true);
+                to_worker.close(true);
+                return;
+            }
+        }
+    }
+
+    void rethrow_sink_error() {
+        std::lock_guard lock(m);
+        if (sink_error) std::rethrow_exception(sink_error);
+    }
+
+    void put(Input&& in) {
+        if (finished) throw Error("FramePipeline: push after finish()");
+        rethrow_sink_error();
+        in.index = pushed++;
+        to_worker.put(std::move(in));
+        rethrow_sink_error();
+    }
+
+    void stop() {
+        if (finished) return;
+        finished = true;
+        to_worker.close();
+        worker.join();
+        sink_thread.join();
+    }
+};
+
+FramePipeline::FramePipeline(Reconstructor& reconstructor, const Params& params, Sink sink)
+    : impl_(std::make_unique<Impl>(reconstructor, params, std::move(sink))) {}
+
+FramePipeline::~FramePipeline() {
+    if (impl_) impl_->stop();
+}
+
+void FramePipeline::push(std::vector<float>&& xyz, std::vector<ParticleAttribute> attributes) {
+    Impl::Input in;
+    in.xyz = std::move(xyz);
+    in.attributes = std::move(attributes);
+    impl_->put(std::move(in));
+}
+
+void FramePipeline::push_failed(std::exception_ptr error) {
+    Impl::Input in;
+    in.error = error ? error : std::make_exception_ptr(Error("frame failed"));
+    impl_->put(std::move(in));
+}
+
+void FramePipeline::finish() {
+    impl_->stop();
+    impl_->rethrow_sink_error();
+}
+
+}  // namespace trilevel
