@@ -43,7 +43,7 @@ reconstruct() {  # OUT.ply ARGS...
 render() {  # MESH.ply NAME STYLE
     local mesh=$1 name=$2 style=$3 raw="$WORK/$2.png"
     echo "+ render $name ($style, ${WIDTH}x${HEIGHT}, $SAMPLES samples)"
-    "$BLENDER" -b --factory-startup --python "$ROOT/docs/images/render.py" -- "$mesh" "$raw" --style "$style" \
+    "$BLENDER" -b --factory-startup --python-exit-code 1 --python "$ROOT/docs/images/render.py" -- "$mesh" "$raw" --style "$style" \
         --width "$WIDTH" --height "$HEIGHT" --samples "$SAMPLES" --threads "$THREADS" "${CAMERA[@]}" \
         > "$WORK/$name.blender.log" 2>&1 || { tail -20 "$WORK/$name.blender.log" >&2; die "Blender failed on $name"; }
     # A 256-colour palette keeps a 640x400 render near 100 KB; without Pillow the RGB PNG is kept.

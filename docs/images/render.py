@@ -1,6 +1,6 @@
 """Renders one trilevel mesh with Blender's Cycles on the CPU (headless).
 
-  blender -b --factory-startup --python docs/images/render.py -- MESH.ply OUT.png [options]
+  blender -b --factory-startup --python-exit-code 1 --python docs/images/render.py -- MESH.ply OUT.png [options]
 
 One camera, a sun and a grey sky, a grey floor at height 0, smooth shading. Meshes are in the
 project's y-up world units and are turned to Blender's z-up; the camera is given in the mesh's own
@@ -17,6 +17,7 @@ none), so keep the resolution modest. docs/images/make_images.sh builds the mesh
 
 import argparse
 import math
+import os
 import sys
 
 import bpy
@@ -90,6 +91,8 @@ def levels_material():
 
 def main():
     args = parse_args()
+    if not os.path.isfile(args.mesh):
+        sys.exit(f"render.py: error: no mesh at {args.mesh}")
     clear_scene()
     scene = bpy.context.scene
 
