@@ -9,7 +9,8 @@
 # Python 3 with Pillow (`apt-get install -y python3-pil`) to store the PNGs with a 256-colour palette.
 # The smoothed picture is skipped, with a message, when the CLI has no --smooth.
 # Environment: SAMPLES (Cycles samples per pixel, 32), WIDTH x HEIGHT (640 x 400), WORK (meshes,
-# build/images), OUT (the images, docs/images), THREADS (render and reconstruction threads, 2).
+# build/images), OUT (the images, docs/images), THREADS (render and reconstruction threads, 2),
+# PICTURES (which to make, "adaptive levels smoothed").
 set -euo pipefail
 
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
@@ -24,6 +25,7 @@ THREADS=${THREADS:-2}
 WORK=${WORK:-$ROOT/build/images}
 OUT=${OUT:-$ROOT/docs/images}
 # Debian's interpreter first: a python3 earlier on PATH (pyenv's) may lack Pillow.
+PICTURES=${PICTURES:-adaptive levels smoothed}
 PYTHON=${PYTHON:-$(command -v /usr/bin/python3 || command -v python3 || true)}
 # One camera for every picture (mesh coordinates, y up): the pool and the wave on the far wall.
 CAMERA=(--target 0.2,1.2,0 --azimuth -30 --elevation 24 --distance 5.0 --lens 35)
@@ -62,12 +64,18 @@ EOF
     echo "  $OUT/$name.png: $(stat -c %s "$OUT/$name.png") bytes"
 }
 
-reconstruct "$WORK/adaptive.ply" --color-levels
-render "$WORK/adaptive.ply" dam-break-adaptive water
-render "$WORK/adaptive.ply" dam-break-levels levels
-if "$TRILEVEL" reconstruct --help | grep -q -- '--smooth'; then
-    reconstruct "$WORK/smoothed.ply" --smooth
-    render "$WORK/smoothed.ply" dam-break-smoothed water
-else
-    echo "make_images.sh: $TRILEVEL has no --smooth; dam-break-smoothed.png not rendered" >&2
+want() { case " $PICTURES " in *" $1 "*) return 0;; *) return 1;; esac; }
+
+if want adaptive || want levels; then
+    reconstruct "$WORK/adaptive.ply" --color-levels
+    want adaptive && render "$WORK/adaptive.ply" dam-break-adaptive water
+    want levels && render "$WORK/adaptive.ply" dam-break-levels levels
+fi
+if want smoothed; then
+    if "$TRILEVEL" reconstruct --help | grep -q -- '--smooth'; then
+        reconstruct "$WORK/smoothed.ply" --smooth
+        render "$WORK/smoothed.ply" dam-break-smoothed water
+    else
+        echo "make_images.sh: $TRILEVEL has no --smooth; dam-break-smoothed.png not rendered" >&2
+    fi
 fi
