@@ -22,6 +22,8 @@ python3-scipy and python3-matplotlib):
       --splashsurf ~/.cache/trilevel-bench/venv/bin/pysplashsurf \\
       --input ../shared/data/dam_break_frame_23_24389_particles.bgeo --radius 0.025
 
+When the CLI (or --smooth-cli) has --smooth, the table also gets the smoothed adaptive mesh, with
+splashsurf's smoothed and cleaned mesh beside it (both left out of the plot).
 It writes the meshes and a JSON of the measurements to --work, the table to --markdown and the
 plot to --png. `--plot-only` redraws the table and plot from the JSON without rerunning anything.
 """
