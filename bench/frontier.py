@@ -336,8 +336,8 @@ def main():
     ap.add_argument("--work", default="/tmp/trilevel-frontier", help="meshes and frontier.json go here")
     ap.add_argument("--markdown", default=os.path.join(HERE, "RESULTS-frontier.md"), help="table output")
     ap.add_argument("--png", default=os.path.join(ROOT, "docs", "images", "frontier.png"), help="plot output")
-    ap.add_argument("--reuse", action="store_true", help="keep measurements of WORK/frontier.json whose command "
-                    "is unchanged (after editing the configurations)")
+    ap.add_argument("--reuse", action="store_true", help="keep measurements of WORK/frontier.json whose command and mesh file "
+                    "are unchanged (a rebuilt CLI is not noticed: delete its meshes in WORK)")
     ap.add_argument("--plot-only", action="store_true", help="redraw from WORK/frontier.json")
     args = ap.parse_args()
     jpath = os.path.join(args.work, "frontier.json")
