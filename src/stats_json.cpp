@@ -21,6 +21,10 @@ std::string stats_to_json(const Stats& s, const Params& p) {
     j["triangles"] = s.triangles;
     j["triangles_by_kind"] = {{"level2", s.triangles_level2}, {"level3", s.triangles_level3}, {"patch", s.triangles_patch}};
     j["crack_vertices_collapsed"] = s.crack_vertices_collapsed;
+    if (p.smooth || p.sliver_cleanup) {
+        j["sliver_edges_collapsed"] = s.sliver_edges_collapsed;
+        j["smoothing_reverted_moves"] = s.smoothing_reverted_moves;
+    }
     nlohmann::ordered_json t = nlohmann::ordered_json::object();
     for (const auto& [name, ms] : s.time_ms) t[name] = ms;
     j["time_ms"] = t;
@@ -45,7 +49,10 @@ std::string stats_to_json(const Stats& s, const Params& p) {
                        {"curvature_threshold", p.curvature_threshold > 0 ? p.curvature_threshold : default_curvature_threshold()},
                        {"level2_tolerance", p.level2_tolerance},
                        {"crack_closing", p.crack_closing == CrackClosing::Collapse ? "collapse" : "patches"},
-                       {"level_hysteresis", p.level_hysteresis}};
+                       {"level_hysteresis", p.level_hysteresis},
+                       {"smooth", p.smooth},
+                       {"smooth_iterations", p.smooth ? (p.smooth_iterations > 0 ? p.smooth_iterations : kDefaultSmoothIterations) : 0},
+                       {"sliver_cleanup", p.smooth || p.sliver_cleanup}};
     return j.dump(2) + "\n";
 }
 

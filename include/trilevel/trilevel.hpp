@@ -71,7 +71,25 @@ struct Params {
                                        ///< curvature alone, 58% with the default levels (README).
     NormalMode normals = NormalMode::None; ///< per-vertex normals to compute (Mesh::normals)
     CrackClosing crack_closing = CrackClosing::Collapse;  ///< adaptive mode: see CrackClosing
+    /// Smoothing for rendering (docs/smoothing.md): weighted Laplacian smoothing after Löschner et
+    /// al. (VMV 2023), each vertex weighted by the neighbour counts of the particles around it (splash
+    /// and thin sheets barely move), the curvature shrink given back and a per-component volume correction
+    /// along the normals. Moves vertices only: the mesh stays closed and oriented by index, each
+    /// component keeps its volume. Turns sliver_cleanup on. With normals, NormalMode::Gradient gives
+    /// the area-weighted normals of the smoothed mesh (the field's gradient no longer matches
+    /// moved vertices). Off by default: the mesh is then exactly the unsmoothed one.
+    bool smooth = false;
+    /// Laplacian smoothing steps when `smooth` is on (more: smoother and slower); 0 picks kDefaultSmoothIterations.
+    int smooth_iterations = 0;
+    /// Collapses the needle triangles marching cubes makes where the surface passes near a lattice
+    /// point (an edge under 0.15 of its triangle's longest), by index, keeping the mesh a closed
+    /// oriented 2-manifold (link condition, no triangle turned over); on with `smooth`.
+    bool sliver_cleanup = false;
 };
+
+/// Smoothing iterations that Params::smooth uses by default (chosen on the analytic test bodies,
+/// bench/RESULTS-smoothing.md).
+constexpr int kDefaultSmoothIterations = 25;
 
 /// A named quantity per particle (input) or per mesh vertex (output): velocity, density, ...
 struct Attribute {
@@ -124,6 +142,8 @@ struct Stats {
     std::size_t triangles_level3 = 0;       ///< TriangleKind::Level3
     std::size_t triangles_patch = 0;        ///< TriangleKind::Patch (crack closing, DESIGN §7)
     std::size_t crack_vertices_collapsed = 0; ///< inner crack crossings merged away (CrackClosing::Collapse)
+    std::size_t sliver_edges_collapsed = 0;   ///< needle edges collapsed (Params::sliver_cleanup)
+    std::size_t smoothing_reverted_moves = 0; ///< smoothing moves taken back where a triangle would turn over
     std::vector<std::pair<std::string, double>> time_ms;  ///< milliseconds (wall) per stage in pipeline order, then "total"
     std::vector<std::pair<std::string, double>> kernel_ms; ///< milliseconds of OpenCL profiling time per kernel
     std::uint64_t peak_memory_bytes = 0;   ///< bytes; process peak resident memory after the run
@@ -194,7 +214,7 @@ public:
     Mesh reconstruct(const float* xyz, std::size_t count, const Params& params, Stats* stats,
                      const std::vector<ParticleAttribute>& attributes);
     /// The same, taking the positions (x, y, z per particle) over: once they are on the device they
-    /// are freed unless normals or attributes need them later, which lowers the peak memory by 12
+    /// are freed unless normals, attributes or smoothing need them later, which lowers the peak memory by 12
     /// bytes a particle (the CLI uses it).
     Mesh reconstruct(std::vector<float>&& xyz, const Params& params, Stats* stats = nullptr,
                      const std::vector<ParticleAttribute>& attributes = {});
