@@ -282,24 +282,28 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
         std::swap(p, q);
     }
     if (settings.keep_volume) {
-        // Two Newton steps on the offset d of each component along its vertex normals: the volume
-        // grows by about d times the area.
-        for (int pass = 0; pass < 2; ++pass) {
-            std::vector<double> volume(comp.count, 0.0), area(comp.count, 0.0);
+        // Newton steps on the offset d of each component along its unit vertex normals n_v: the
+        // volume's derivative is sum_v n_v . dV/dp_v, and dV/dp_v = (sum of v's triangles' cross
+        // products) / 6, whose direction n_v is: the slope is the sum of their lengths / 6.
+        for (int pass = 0; pass < 3; ++pass) {
+            std::vector<double> volume(comp.count, 0.0), slope(comp.count, 0.0);
             for (std::size_t t = 0; t < nt; ++t) {
                 const std::uint32_t* c = corners + 3 * t;
-                const glm::dvec3 o = p[c[0]];
-                const glm::dvec3 n = face_cross(p, c);
-                const std::uint32_t k = comp.of_vertex[c[0]];
-                volume[k] += glm::dot(o, n) / 6.0;
-                area[k] += 0.5 * glm::length(n);
+                volume[comp.of_vertex[c[0]]] += glm::dot(p[c[0]], face_cross(p, c)) / 6.0;
             }
-            vertex_normals();
-            // volume[] above is relative to the origin; the same sum as volume0's but for rounding.
-            const std::vector<double> target = volume0;
+            std::vector<double> gradient(nv);
+            for_vertices(nv, [&](std::size_t v) {
+                glm::dvec3 n(0.0);
+                for (std::uint32_t k = tri.offset[v]; k < tri.offset[v + 1]; ++k) n += face_cross(p, corners + 3 * tri.item[k]);
+                gradient[v] = glm::length(n) / 6.0;
+                normal[v] = gradient[v] > 0 ? n / (6.0 * gradient[v]) : glm::dvec3(0.0);
+            });
+            for (std::size_t v = 0; v < nv; ++v) slope[comp.of_vertex[v]] += gradient[v];
+            // volume[] is taken about the origin, volume0 about each component's first vertex:
+            // equal for a closed component up to rounding.
             for_vertices(nv, [&](std::size_t v) {
                 const std::uint32_t k = comp.of_vertex[v];
-                const double d = area[k] > 0 ? (target[k] - volume[k]) / area[k] : 0.0;
+                const double d = slope[k] > 0 ? (volume0[k] - volume[k]) / slope[k] : 0.0;
                 q[v] = p[v] + d * normal[v];
             });
             guard();

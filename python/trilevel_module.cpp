@@ -67,6 +67,9 @@ struct ReconstructOptions {
     std::uint64_t memory_limit = 0;
     float level_hysteresis = 0.0f;
     std::string crack_closing = "collapse";  ///< "collapse" or "patches"
+    bool smooth = false;                 ///< Params::smooth
+    int smooth_iterations = 0;           ///< Params::smooth_iterations (0: the default)
+    bool sliver_cleanup = false;         ///< Params::sliver_cleanup
     std::optional<std::string> normals;  ///< None, "gradient" or "area"
     std::optional<py::dict> attributes;  ///< name -> (n,) or (n, 3) array per particle
     bool return_levels = false;
@@ -87,6 +90,9 @@ trilevel::Params make_params(float particle_radius, const ReconstructOptions& o)
     if (o.crack_closing == "collapse") p.crack_closing = trilevel::CrackClosing::Collapse;
     else if (o.crack_closing == "patches") p.crack_closing = trilevel::CrackClosing::Patches;
     else throw trilevel::Error("crack_closing must be 'collapse' or 'patches', got '" + o.crack_closing + "'");
+    p.smooth = o.smooth;
+    p.smooth_iterations = o.smooth_iterations;
+    p.sliver_cleanup = o.sliver_cleanup;
     if (!o.normals) p.normals = trilevel::NormalMode::None;
     else if (*o.normals == "gradient") p.normals = trilevel::NormalMode::Gradient;
     else if (*o.normals == "area") p.normals = trilevel::NormalMode::Area;
@@ -179,7 +185,8 @@ struct PyReconstructor {
 
 /// The types of ReconstructOptions' fields, in order: the bound functions take these after
 /// positions and particle_radius and build the struct from them (aggregate initialisation).
-using OptionTypes = std::tuple<std::string, float, float, float, float, std::uint64_t, float, std::string, std::optional<std::string>,
+using OptionTypes = std::tuple<std::string, float, float, float, float, std::uint64_t, float, std::string, bool, int, bool,
+                               std::optional<std::string>,
                                std::optional<py::dict>, bool>;
 
 /// Defines Reconstructor.reconstruct (on `cls`) and reconstruct() (on `m`, with a device) with the
@@ -191,7 +198,8 @@ void define_reconstruct(py::class_<PyReconstructor>& cls, py::module_& m, const 
         py::arg("positions"), py::arg("particle_radius"), py::kw_only(), py::arg("mode") = "adaptive",
         py::arg("cell") = 1.0f, py::arg("kernel_radius") = 4.0f, py::arg("curvature_threshold") = 0.0f,
         py::arg("level2_tolerance") = trilevel::Params{}.level2_tolerance, py::arg("memory_limit") = 0, py::arg("level_hysteresis") = 0.0f,
-        py::arg("crack_closing") = "collapse", py::arg("normals") = py::none(), py::arg("attributes") = py::none(), py::arg("return_levels") = false);
+        py::arg("crack_closing") = "collapse", py::arg("smooth") = false, py::arg("smooth_iterations") = 0,
+        py::arg("sliver_cleanup") = false, py::arg("normals") = py::none(), py::arg("attributes") = py::none(), py::arg("return_levels") = false);
     std::apply([&](auto... a) {
         cls.def("reconstruct",
                 [](PyReconstructor& rec, const Array<float>& positions, float particle_radius, Option... option) {
@@ -234,6 +242,11 @@ level_hysteresis: adaptive mode, frame sequences on one Reconstructor: a coarse 
 crack_closing: adaptive mode: "collapse" (the default: crack patches, then the cracks' inner
     crossings merged into the level-2 crossings, two triangles fewer each) or "patches" (the
     patches alone, as the paper closes cracks); CLI --crack-closing.
+smooth: smooth the mesh for rendering (CLI --smooth): particle-weighted Laplacian smoothing that
+    keeps each component's volume and the mesh closed, with sliver cleanup; normals="gradient"
+    then gives the smoothed mesh's area-weighted normals. smooth_iterations: its Laplacian steps
+    (0: the default, 25; CLI --smooth-iterations). sliver_cleanup: collapse the needle triangles
+    alone (CLI --sliver-cleanup; on with smooth).
 normals: None, "gradient" (unit gradient of the scalar field: the smooth surface's normal) or
     "area" (area-weighted triangle normals): adds per-vertex normals to the result.
 attributes: {name: array} of per-particle values, (n,) for scalars or (n, 3) for vectors (copied,
