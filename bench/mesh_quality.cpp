@@ -4,6 +4,7 @@
 //   mesh_quality MESH --radius R [--particles N] [--body ball|torus|rounded-box]
 //
 // Reads what trilevel's read_mesh reads (PLY binary or ASCII, OBJ, VTK), splashsurf's PLY included.
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -46,11 +47,17 @@ int main(int argc, char** argv) {
         const trilevel::MeshQuality q = trilevel::mesh_quality(mesh, r, particles, body ? &*body : nullptr);
         std::string euler;
         for (std::size_t c = 0; c < q.euler.size() && c < 8; ++c) euler += (c ? "," : "") + std::to_string(q.euler[c]);
+        auto number = [](double x, int digits) {  // JSON has no NaN: null where no body was given
+            if (!std::isfinite(x)) return std::string("null");
+            char buf[64];
+            std::snprintf(buf, sizeof buf, "%.*f", digits, x);
+            return std::string(buf);
+        };
         std::printf("{\"mesh\": \"%s\", \"triangles\": %zu, \"vertices\": %zu, \"closed\": %s, \"components\": %zu, "
-                    "\"euler_first\": [%s], \"normal_rms_deg\": %.3f, \"surface_rms_r\": %.4f, \"surface_offset_r\": %.4f, "
+                    "\"euler_first\": [%s], \"normal_rms_deg\": %s, \"surface_rms_r\": %s, \"surface_offset_r\": %s, "
                     "\"sliver_share\": %.5f, \"min_angle_deg\": %.3f, \"volume\": %.9g, \"volume_ratio\": %.5f}\n",
                     path.c_str(), q.triangles, q.vertices, q.closed ? "true" : "false", q.components, euler.c_str(),
-                    q.normal_rms_deg, q.surface_rms, q.surface_offset, q.sliver_share, q.min_angle_deg, q.volume,
+                    number(q.normal_rms_deg, 3).c_str(), number(q.surface_rms, 4).c_str(), number(q.surface_offset, 4).c_str(), q.sliver_share, q.min_angle_deg, q.volume,
                     q.volume_ratio);
     } catch (const std::exception& e) {
         std::fprintf(stderr, "mesh_quality: error: %s\n", e.what());

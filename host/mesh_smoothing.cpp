@@ -16,6 +16,9 @@ namespace trilevel {
 namespace {
 
 constexpr double kPi = 3.141592653589793;
+/// Shares of the flat surface's kernel sum at which a vertex starts to move and moves fully
+/// (smoothing_weights): a lone splash particle's vertices see about 0.22 of it and stay put.
+constexpr double kWeightLow = 0.45, kWeightHigh = 0.8;
 
 template <class F>
 void for_vertices(std::size_t n, F&& f) {
@@ -25,8 +28,9 @@ void for_vertices(std::size_t n, F&& f) {
 }
 
 /// Particles binned on a dense grid over the mesh's bounding box grown by 2R (a particle further
-/// away is no neighbour of a particle within R of a vertex), cells of at least R, grown where the
-/// box would need more than a few cells per particle. Counting sort: cell order, then input order.
+/// away is no neighbour of a particle within R of a vertex), cells of R/2 (a query scans 5^3 cells,
+/// 15.6 R^3, against 27 R^3 with cells of R), grown where the box would need more than a few cells
+/// per particle. Counting sort: cell order, then input order.
 class DenseGrid {
 public:
     DenseGrid(const Mesh& mesh, const float* xyz, std::size_t n, double R) : R2_(R * R) {
@@ -38,11 +42,12 @@ public:
         }
         lo_ = lo - 2.0 * R;
         const glm::dvec3 extent = hi + 2.0 * R - lo_;
-        cell_ = R;
+        cell_ = 0.5 * R;
         const double limit = std::max(4.0 * double(n), double(1 << 20));
         while ((std::floor(extent.x / cell_) + 1) * (std::floor(extent.y / cell_) + 1) * (std::floor(extent.z / cell_) + 1) > limit)
             cell_ *= 1.5;
         dims_ = glm::ivec3(glm::floor(extent / cell_)) + 1;
+        reach_ = int(std::ceil(R / cell_));
         std::vector<std::uint32_t> cell_of(n);
         start_.assign(std::size_t(dims_.x) * dims_.y * dims_.z + 1, 0);
         for (std::size_t j = 0; j < n; ++j) {
@@ -71,9 +76,9 @@ public:
     template <class F>
     void for_each_within(glm::dvec3 p, F&& f) const {
         const glm::ivec3 c(glm::floor((p - lo_) / cell_));
-        for (int z = std::max(c.z - 1, 0); z <= std::min(c.z + 1, dims_.z - 1); ++z)
-            for (int y = std::max(c.y - 1, 0); y <= std::min(c.y + 1, dims_.y - 1); ++y)
-                for (int x = std::max(c.x - 1, 0); x <= std::min(c.x + 1, dims_.x - 1); ++x) {
+        for (int z = std::max(c.z - reach_, 0); z <= std::min(c.z + reach_, dims_.z - 1); ++z)
+            for (int y = std::max(c.y - reach_, 0); y <= std::min(c.y + reach_, dims_.y - 1); ++y)
+                for (int x = std::max(c.x - reach_, 0); x <= std::min(c.x + reach_, dims_.x - 1); ++x) {
                     const std::size_t k = index({x, y, z});
                     for (std::uint32_t s = start_[k]; s < start_[k + 1]; ++s) {
                         const glm::dvec3 d = p - pos_[s];
@@ -90,6 +95,7 @@ private:
     double R2_, cell_ = 0;
     glm::dvec3 lo_;
     glm::ivec3 dims_{0};
+    int reach_ = 1;  ///< cells a query scans to each side
     std::vector<std::uint32_t> start_, id_;
     std::vector<glm::dvec3> pos_;
 };
@@ -158,33 +164,18 @@ std::vector<float> smoothing_weights(const Mesh& mesh, const float* xyz, std::si
     if (nv == 0 || count == 0) return w;
     const DenseGrid grid(mesh, xyz, count, R);
     const double R2 = double(R) * R;
-    // Neighbour counts, only of the particles some vertex sees (flags written per particle slot:
-    // the same value from every writer, so no order matters).
-    std::vector<std::uint8_t> seen(grid.slots(), 0);
+    // The kernel sum at a vertex on the flat surface of particles at rest spacing 2r: half the
+    // interior's, rho * 4 pi R^3 * 16/315 (the integral of (1 - d^2/R^2)^3 over the ball), less
+    // the layer of about r between the surface and the outer particles (a factor of about 0.7).
+    const double flat = 0.5 * 0.7 * (4.0 * kPi * 16.0 / 315.0) * std::pow(double(R) / (2.0 * r), 3.0);
     for_vertices(nv, [&](std::size_t v) {
         const glm::dvec3 p(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]);
-        grid.for_each_within(p, [&](std::size_t s, double) { reinterpret_cast<volatile std::uint8_t&>(seen[s]) = 1; });
-    });
-    std::vector<float> neighbours(grid.slots(), 0.0f);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, grid.slots(), 1024), [&](const auto& range) {
-        for (std::size_t s = range.begin(); s != range.end(); ++s) {
-            if (!seen[s]) continue;
-            std::size_t n = 0;
-            grid.for_each_within(grid.position(s), [&](std::size_t o, double) { n += o != s; });
-            neighbours[s] = float(n);
-        }
-    });
-    const double half = 2.0 * kPi / 3.0 * std::pow(double(R) / (2.0 * r), 3.0);
-    for_vertices(nv, [&](std::size_t v) {
-        const glm::dvec3 p(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]);
-        double sum = 0, weight = 0;
-        grid.for_each_within(p, [&](std::size_t s, double d2) {
-            const double k = std::pow(1.0 - d2 / R2, 3.0);
-            sum += k * neighbours[s];
-            weight += k;
+        double sum = 0;
+        grid.for_each_within(p, [&](std::size_t, double d2) {
+            const double x = 1.0 - d2 / R2;
+            sum += x * x * x;
         });
-        if (weight <= 0) return;
-        const double x = std::min(1.0, sum / weight / half);
+        const double x = std::clamp((sum / flat - kWeightLow) / (kWeightHigh - kWeightLow), 0.0, 1.0);
         w[v] = float(x * x * (3.0 - 2.0 * x));
     });
     return w;
@@ -199,6 +190,9 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
     const MeshComponents comp = mesh_components(mesh);
     const std::vector<double> volume0 = component_volumes(mesh, comp.of_vertex, comp.count);
     for (double v : volume0) report.volume_before += v;
+    std::vector<float> w = weights;  // small components keep their vertices
+    for (std::size_t v = 0; v < nv; ++v)
+        if (std::fabs(volume0[comp.of_vertex[v]]) < settings.min_volume) w[v] = 0.0f;
 
     std::vector<glm::dvec3> p(nv), q(nv);
     for (std::size_t v = 0; v < nv; ++v) p[v] = {mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]};
@@ -207,24 +201,44 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
     tbb::parallel_for(std::size_t(0), nt, [&](std::size_t t) { n0[t] = face_cross(p, corners + 3 * t); });
     std::vector<std::uint8_t> bad(nt);
 
-    // Takes back the moves (p -> q) at every corner of a triangle that q turns over, until none is left.
+    // Takes back the moves (p -> q) at every corner of a triangle that q turns over, until none is
+    // left. After the first pass over all triangles only those around the vertices just taken back
+    // can change; each round's set of vertices is taken back as a whole, so the result does not
+    // depend on any order (p itself turns nothing over, so this ends).
+    std::vector<std::uint8_t> mark(std::max(nv, nt), 0);
+    auto turned = [&](std::size_t t) { return glm::dot(face_cross(q, corners + 3 * t), n0[t]) <= 0.0 && n0[t] != glm::dvec3(0.0); };
     auto guard = [&] {
-        for (;;) {
-            tbb::parallel_for(std::size_t(0), nt, [&](std::size_t t) {
-                bad[t] = glm::dot(face_cross(q, corners + 3 * t), n0[t]) <= 0.0 && n0[t] != glm::dvec3(0.0);
-            });
-            if (std::find(bad.begin(), bad.end(), std::uint8_t(1)) == bad.end()) return;
-            std::vector<std::uint8_t> undo(nv, 0);
-            for_vertices(nv, [&](std::size_t v) {
-                if (q[v] == p[v]) return;
+        tbb::parallel_for(std::size_t(0), nt, [&](std::size_t t) { bad[t] = turned(t); });
+        std::vector<std::uint32_t> bad_list, undo, check;
+        for (std::size_t t = 0; t < nt; ++t)
+            if (bad[t]) bad_list.push_back(std::uint32_t(t));
+        while (!bad_list.empty()) {
+            undo.clear();
+            for (std::uint32_t t : bad_list)
+                for (int k = 0; k < 3; ++k) {
+                    const std::uint32_t v = corners[3 * std::size_t(t) + k];
+                    if (q[v] != p[v] && !mark[v]) {
+                        mark[v] = 1;
+                        undo.push_back(v);
+                    }
+                }
+            for (std::uint32_t v : undo) {
+                q[v] = p[v];
+                mark[v] = 0;
+            }
+            report.reverted_moves += undo.size();
+            check.clear();
+            for (std::uint32_t v : undo)
                 for (std::uint32_t k = tri.offset[v]; k < tri.offset[v + 1]; ++k)
-                    if (bad[tri.item[k]]) undo[v] = 1;
-            });
-            std::size_t undone = 0;
-            for (std::size_t v = 0; v < nv; ++v) undone += undo[v];
-            if (!undone) return;
-            report.reverted_moves += undone;
-            for_vertices(nv, [&](std::size_t v) { if (undo[v]) q[v] = p[v]; });
+                    if (!mark[tri.item[k]]) {
+                        mark[tri.item[k]] = 1;
+                        check.push_back(tri.item[k]);
+                    }
+            bad_list.clear();
+            for (std::uint32_t t : check) {
+                mark[t] = 0;
+                if (turned(t)) bad_list.push_back(t);
+            }
         }
     };
     std::vector<glm::dvec3> normal(nv, glm::dvec3(0.0));
@@ -239,14 +253,14 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
     auto laplacian_step = [&](double factor) {
         for_vertices(nv, [&](std::size_t v) {
             const std::uint32_t b = nbr.offset[v], e = nbr.offset[v + 1];
-            if (b == e || weights[v] <= 0.0f) {
+            if (b == e || w[v] <= 0.0f) {
                 q[v] = p[v];
                 return;
             }
             glm::dvec3 mean(0.0);
             for (std::uint32_t k = b; k < e; ++k) mean += p[nbr.item[k]];
             mean /= double(e - b);
-            q[v] = p[v] + (factor * double(weights[v])) * (mean - p[v]);
+            q[v] = p[v] + (factor * double(w[v])) * (mean - p[v]);
         });
         guard();
         std::swap(p, q);
@@ -277,7 +291,7 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
             });
             std::swap(sn, tmp);
         }
-        for_vertices(nv, [&](std::size_t v) { q[v] = p[v] - (sn[v] * double(weights[v])) * normal[v]; });
+        for_vertices(nv, [&](std::size_t v) { q[v] = p[v] - (sn[v] * double(w[v])) * normal[v]; });
         guard();
         std::swap(p, q);
     }
@@ -285,7 +299,9 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
         // Newton steps on the offset d of each component along its unit vertex normals n_v: the
         // volume's derivative is sum_v n_v . dV/dp_v, and dV/dp_v = (sum of v's triangles' cross
         // products) / 6, whose direction n_v is: the slope is the sum of their lengths / 6.
-        for (int pass = 0; pass < 3; ++pass) {
+        // A step is bounded by a quarter of the component's volume over its area (a twelfth of a
+        // ball's radius), so that a tiny component shrunk by the steps is regrown gradually.
+        for (int pass = 0; pass < 8; ++pass) {
             std::vector<double> volume(comp.count, 0.0), slope(comp.count, 0.0);
             for (std::size_t t = 0; t < nt; ++t) {
                 const std::uint32_t* c = corners + 3 * t;
@@ -303,7 +319,12 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
             // equal for a closed component up to rounding.
             for_vertices(nv, [&](std::size_t v) {
                 const std::uint32_t k = comp.of_vertex[v];
-                const double d = slope[k] > 0 ? (volume0[k] - volume[k]) / slope[k] : 0.0;
+                if (std::fabs(volume0[k]) < settings.min_volume) {
+                    q[v] = p[v];
+                    return;
+                }
+                const double limit = 0.25 * std::fabs(volume0[k]) / std::max(slope[k], 1e-300);
+                const double d = slope[k] > 0 ? std::clamp((volume0[k] - volume[k]) / slope[k], -limit, limit) : 0.0;
                 q[v] = p[v] + d * normal[v];
             });
             guard();

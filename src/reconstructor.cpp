@@ -290,6 +290,7 @@ void postprocess(Mesh& mesh, const float* xyz, std::size_t n, const Params& p, S
     if (p.smooth) {
         SmoothingSettings settings;
         settings.iterations = p.smooth_iterations > 0 ? p.smooth_iterations : kDefaultSmoothIterations;
+        settings.min_volume = smooth_min_volume(p.particle_radius);
         const std::vector<float> weights = smoothing_weights(mesh, xyz, n, p.particle_radius, p.kernel_radius * p.particle_radius);
         s.smoothing_reverted_moves = smooth_mesh(mesh, weights, settings).reverted_moves;
         timer.stage("smoothing");

