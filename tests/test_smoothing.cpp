@@ -178,7 +178,7 @@ TEST_CASE("smoothing gives the same bits on 1 and 2 threads", "[smoothing]") {
     CHECK(std::memcmp(one.normals.data(), two.normals.data(), one.normals.size() * sizeof(float)) == 0);
 }
 
-TEST_CASE("smoothing off leaves the mesh as it was; sliver cleanup alone only removes needles", "[smoothing]") {
+TEST_CASE("smoothing off leaves the mesh as it was, and sliver cleanup alone only removes needles", "[smoothing]") {
     const float r = 0.025f;
     const ParticleSet s = generate_scene("ball", r, 4);
     const Mesh plain = reconstructor().reconstruct(s.positions.data(), s.size(), params(r));
