@@ -90,12 +90,13 @@ void check_output(const std::string& path, const std::vector<std::string>& exten
 
 struct ReconstructArgs {
     std::string input, output, radius, kernel_radius = "4", mode = "adaptive", cell = "1", threshold, memory,
-        stats, hysteresis, level2_tolerance, threads, crack_closing = "collapse";
+        stats, hysteresis, level2_tolerance, threads, crack_closing = "collapse", smooth_iterations;
     std::string particle_box, clip_box, remove_below;  // input filter and post-processing
     bool has_particle_box = false, has_clip_box = false, has_remove_below = false;  // given (even empty)
     std::string start, end;  // frame sequences: range of frame numbers
     int device = -1;
     bool color_levels = false, quiet = false, skip_existing = false, drop_invalid = false;
+    bool smooth = false, sliver_cleanup = false;
     std::string normals;                  ///< "" (none), "gradient" or "area"
     std::vector<std::string> attributes;  ///< particle attributes to interpolate at the vertices
 };
@@ -166,6 +167,15 @@ trilevel::Params make_params(const ReconstructArgs& a) {
     if (a.normals == "gradient") p.normals = trilevel::NormalMode::Gradient;
     else if (a.normals == "area") p.normals = trilevel::NormalMode::Area;
     else if (!a.normals.empty()) throw UsageError("--normals must be gradient or area (or given alone), got '" + a.normals + "'");
+    p.smooth = a.smooth || !a.smooth_iterations.empty();
+    p.sliver_cleanup = a.sliver_cleanup;
+    if (!a.smooth_iterations.empty()) {
+        const bool digits = std::all_of(a.smooth_iterations.begin(), a.smooth_iterations.end(), [](char c) { return c >= '0' && c <= '9'; });
+        const int n = digits && a.smooth_iterations.size() <= 4 ? std::stoi(a.smooth_iterations) : 0;
+        if (n < 1 || n > 1000)
+            throw UsageError("--smooth-iterations must be a whole number from 1 to 1000, got '" + a.smooth_iterations + "'");
+        p.smooth_iterations = n;
+    }
     return p;
 }
 
@@ -580,8 +590,16 @@ int run(int argc, char** argv) {
     rec->add_option("--stats", ra.stats, "Write statistics as JSON");
     rec->add_flag("--color-levels", ra.color_levels, "PLY: colour vertices by level (green 2, blue 3)");
     auto* normals = rec->add_option("--normals", ra.normals,
-                                    "Per-vertex normals: gradient of the scalar field (alone or 'gradient') or 'area' (area-weighted)")
+                                    "Per-vertex normals: gradient of the scalar field (alone or 'gradient'; with --smooth area-weighted) or 'area' (area-weighted)")
                         ->expected(0, 1);
+    rec->add_flag("--smooth", ra.smooth,
+                  "Smooth the mesh for rendering: particle-weighted Laplacian smoothing that keeps each component's "
+                  "volume, with sliver cleanup; --normals then gives area-weighted normals of the smoothed mesh");
+    rec->add_option("--smooth-iterations", ra.smooth_iterations,
+                    "Smoothing strength: Laplacian steps (implies --smooth; default " +
+                        std::to_string(trilevel::kDefaultSmoothIterations) + ")");
+    rec->add_flag("--sliver-cleanup", ra.sliver_cleanup,
+                  "Collapse the needle triangles of marching cubes by index, keeping the mesh closed (on with --smooth)");
     rec->add_option("--attribute", ra.attributes,
                     "Particle attribute to interpolate at the vertices (e.g. velocity; .vtk/.vtu/.bgeo input; repeatable)")
         ->allow_extra_args(false);  // one name per --attribute, so a following input file stays positional
@@ -608,7 +626,7 @@ int run(int argc, char** argv) {
 
     GenerateArgs ga;
     auto* gen = app.add_subcommand("generate", "Writes a test particle scene");
-    gen->add_option("scene", ga.scene, "block, sphere, dam-break, pool-and-drop or falling-drop (moving)")->required();
+    gen->add_option("scene", ga.scene, "block, sphere, dam-break, pool-and-drop, falling-drop (moving), or the analytic bodies ball, torus, rounded-box")->required();
     gen->add_option("-o,--output", ga.output, "Particle file (.xyz, .ply, .vtk); '{}': frame number, 4 digits")->required();
     gen->add_option("--frame", ga.frame, "Moving scenes: the (first) frame to write (default 0)");
     gen->add_option("--frames", ga.frames, "How many consecutive frames to write (default 1; needs '{}' in -o)");

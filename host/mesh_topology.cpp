@@ -1,7 +1,9 @@
 // Index-topology checks of a mesh (DESIGN §7); see mesh_topology.hpp.
 #include "mesh_topology.hpp"
 
+#include <algorithm>
 #include <atomic>
+#include <numeric>
 #include <cstdint>
 #include <vector>
 
@@ -78,6 +80,48 @@ MeshTopologyReport mesh_topology_report(const Mesh& mesh) {
         r.non_manifold_edges += p.non_manifold_edges;
     });
     return r;
+}
+
+MeshComponents mesh_components(const Mesh& mesh) {
+    const std::size_t nv = mesh.vertex_count();
+    std::vector<std::uint32_t> parent(nv);
+    std::iota(parent.begin(), parent.end(), 0u);
+    auto root = [&](std::uint32_t v) {
+        while (parent[v] != v) v = parent[v] = parent[parent[v]];
+        return v;
+    };
+    const auto& t = mesh.triangles;
+    for (std::size_t i = 0; i + 2 < t.size(); i += 3)
+        for (int k = 1; k < 3; ++k) {
+            const std::uint32_t a = root(t[i]), b = root(t[i + k]);
+            if (a != b) parent[std::max(a, b)] = std::min(a, b);  // the root stays the smallest vertex
+        }
+    MeshComponents c;
+    c.of_vertex.resize(nv);
+    for (std::uint32_t v = 0; v < nv; ++v) {
+        const std::uint32_t r = root(v);
+        c.of_vertex[v] = r == v ? std::uint32_t(c.count++) : c.of_vertex[r];  // r <= v: numbered already
+    }
+    return c;
+}
+
+std::vector<long long> euler_characteristics(const Mesh& mesh, const MeshComponents& components) {
+    std::vector<long long> chi(components.count, 0);
+    for (std::uint32_t v = 0; v < mesh.vertex_count(); ++v) ++chi[components.of_vertex[v]];
+    const auto& t = mesh.triangles;
+    std::vector<std::uint64_t> edges;
+    edges.reserve(t.size());
+    for (std::size_t i = 0; i + 2 < t.size(); i += 3) {
+        ++chi[components.of_vertex[t[i]]];
+        for (int k = 0; k < 3; ++k) {
+            const std::uint64_t a = t[i + k], b = t[i + (k + 1) % 3];
+            edges.push_back(std::min(a, b) << 32 | std::max(a, b));
+        }
+    }
+    std::sort(edges.begin(), edges.end());
+    edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+    for (std::uint64_t e : edges) --chi[components.of_vertex[std::uint32_t(e >> 32)]];
+    return chi;
 }
 
 bool is_closed_and_oriented(const Mesh& mesh) { return mesh_topology_report(mesh).closed_and_oriented(); }

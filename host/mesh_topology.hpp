@@ -2,6 +2,8 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
+#include <vector>
 
 #include "trilevel/trilevel.hpp"
 
@@ -23,5 +25,16 @@ struct MeshTopologyReport {
 
 /// Builds the report with a per-vertex list of outgoing edges (linear memory, parallel).
 MeshTopologyReport mesh_topology_report(const Mesh& mesh);
+
+/// Connected components of the mesh by shared vertices: `of_vertex[v]` in [0, count), numbered in
+/// the order of each component's smallest vertex index (a vertex in no triangle is one of its own).
+struct MeshComponents {
+    std::vector<std::uint32_t> of_vertex;
+    std::size_t count = 0;
+};
+MeshComponents mesh_components(const Mesh& mesh);
+
+/// V - E + F of each component (E: distinct undirected edges); 2 for a sphere, 0 for a torus.
+std::vector<long long> euler_characteristics(const Mesh& mesh, const MeshComponents& components);
 
 }  // namespace trilevel

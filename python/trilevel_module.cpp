@@ -72,6 +72,9 @@ struct ReconstructOptions {
     float remove_components_below = 0.0f;    ///< particle volumes; 0 = off
     std::optional<std::vector<double>> particle_box;  ///< (x0, y0, z0, x1, y1, z1) or None
     std::optional<std::vector<double>> clip_box;      ///< (x0, y0, z0, x1, y1, z1) or None
+    bool smooth = false;                 ///< Params::smooth
+    int smooth_iterations = 0;           ///< Params::smooth_iterations (0: the default)
+    bool sliver_cleanup = false;         ///< Params::sliver_cleanup
     std::optional<std::string> normals;  ///< None, "gradient" or "area"
     std::optional<py::dict> attributes;  ///< name -> (n,) or (n, 3) array per particle
     bool return_levels = false;
@@ -105,6 +108,9 @@ trilevel::Params make_params(float particle_radius, const ReconstructOptions& o)
     p.remove_components_below = o.remove_components_below;
     p.particle_box = to_box(o.particle_box, "particle_box");
     p.clip_box = to_box(o.clip_box, "clip_box");
+    p.smooth = o.smooth;
+    p.smooth_iterations = o.smooth_iterations;
+    p.sliver_cleanup = o.sliver_cleanup;
     if (!o.normals) p.normals = trilevel::NormalMode::None;
     else if (*o.normals == "gradient") p.normals = trilevel::NormalMode::Gradient;
     else if (*o.normals == "area") p.normals = trilevel::NormalMode::Area;
@@ -269,7 +275,8 @@ struct PyFramePipeline {
 /// The types of ReconstructOptions' fields, in order: the bound functions take these after
 /// positions and particle_radius and build the struct from them (aggregate initialisation).
 using OptionTypes = std::tuple<std::string, float, float, float, float, std::uint64_t, float, std::string, float,
-                               std::optional<std::vector<double>>, std::optional<std::vector<double>>, std::optional<std::string>,
+                               std::optional<std::vector<double>>, std::optional<std::vector<double>>, bool, int, bool,
+                               std::optional<std::string>,
                                std::optional<py::dict>, bool>;
 
 /// Defines Reconstructor.reconstruct (on `cls`) and reconstruct() (on `m`, with a device) with the
@@ -282,7 +289,8 @@ void define_reconstruct(py::class_<PyReconstructor>& cls, py::module_& m, const 
         py::arg("cell") = 1.0f, py::arg("kernel_radius") = 4.0f, py::arg("curvature_threshold") = 0.0f,
         py::arg("level2_tolerance") = trilevel::Params{}.level2_tolerance, py::arg("memory_limit") = 0, py::arg("level_hysteresis") = 0.0f,
         py::arg("crack_closing") = "collapse", py::arg("remove_components_below") = 0.0f, py::arg("particle_box") = py::none(),
-        py::arg("clip_box") = py::none(), py::arg("normals") = py::none(), py::arg("attributes") = py::none(), py::arg("return_levels") = false);
+        py::arg("clip_box") = py::none(), py::arg("smooth") = false, py::arg("smooth_iterations") = 0,
+        py::arg("sliver_cleanup") = false, py::arg("normals") = py::none(), py::arg("attributes") = py::none(), py::arg("return_levels") = false);
     std::apply([&](auto... a) {
         cls.def("reconstruct",
                 [](PyReconstructor& rec, const Array<float>& positions, float particle_radius, Option... option) {
@@ -334,6 +342,11 @@ particle_box: None or (x0, y0, z0, x1, y1, z1) in world units: the particles out
 clip_box: None or (x0, y0, z0, x1, y1, z1): the surface is cut at this box and closed there with
     flat caps (triangle kind 2, stats["clip_cap_triangles"]); the mesh stays closed and every
     vertex lies in the box. A box without fluid gives empty arrays (CLI --clip-box).
+smooth: smooth the mesh for rendering (CLI --smooth): particle-weighted Laplacian smoothing that
+    keeps each component's volume and the mesh closed, with sliver cleanup; normals="gradient"
+    then gives the smoothed mesh's area-weighted normals. smooth_iterations: its Laplacian steps
+    (0: the default, 12; CLI --smooth-iterations). sliver_cleanup: collapse the needle triangles
+    alone (CLI --sliver-cleanup; on with smooth).
 normals: None, "gradient" (unit gradient of the scalar field: the smooth surface's normal) or
     "area" (area-weighted triangle normals): adds per-vertex normals to the result.
 attributes: {name: array} of per-particle values, (n,) for scalars or (n, 3) for vectors (copied,

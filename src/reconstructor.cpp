@@ -27,7 +27,9 @@
 #include "mesh_clip.hpp"
 #include "mesh_components.hpp"
 #include "particle_box.hpp"
+#include "mesh_smoothing.hpp"
 #include "opencl_runtime.hpp"
+#include "sliver_cleanup.hpp"
 #include "stage_constants.hpp"
 #include "surface_mesher.hpp"
 #include "transition_continuity.hpp"
@@ -88,6 +90,9 @@ void validate(const Params& p) {
     if (!(std::isfinite(p.remove_components_below) && p.remove_components_below >= 0.0f))
         throw Error("remove-components-below must be finite and >= 0 (particle volumes; 0 = off), got " +
                     std::to_string(p.remove_components_below));
+    if (p.smooth_iterations < 0 || p.smooth_iterations > 1000)
+        throw Error("smooth iterations must lie in [0, 1000] (0: the default " + std::to_string(kDefaultSmoothIterations) +
+                    "), got " + std::to_string(p.smooth_iterations));
     if (p.memory_limit_bytes != 0 && p.memory_limit_bytes < 4096)
         throw Error("memory limit of " + std::to_string(p.memory_limit_bytes) +
                     " bytes cannot hold even the smallest buffers; give at least 4 KiB (0: the device's and host's memory)");
@@ -285,16 +290,36 @@ void refine_level2_edges(OpenCLRuntime& rt, FinePoints& points, FinePointMap& fi
     on_device(rt, points, field, [&] { evaluate_crossed_midpoints(rt, points, cells, frame, bins, r, R); });
 }
 
+/// Post-processing for rendering, in world units: sliver cleanup, then smoothing (Params::smooth,
+/// host/sliver_cleanup.hpp, host/mesh_smoothing.hpp), each timed when asked for.
+void postprocess(Mesh& mesh, const float* xyz, std::size_t n, const Params& p, Stats& s, StageTimer& timer) {
+    if (!p.smooth && !p.sliver_cleanup) return;
+    s.sliver_edges_collapsed = collapse_slivers(mesh);
+    timer.stage("sliver_cleanup");
+    if (p.smooth) {
+        SmoothingSettings settings;
+        settings.iterations = p.smooth_iterations > 0 ? p.smooth_iterations : kDefaultSmoothIterations;
+        settings.min_volume = smooth_min_volume(p.particle_radius);
+        const std::vector<float> weights = smoothing_weights(mesh, xyz, n, p.particle_radius, p.kernel_radius * p.particle_radius);
+        s.smoothing_reverted_moves = smooth_mesh(mesh, weights, settings).reverted_moves;
+        timer.stage("smoothing");
+    }
+    count_mesh(mesh, s);
+    s.closed = is_closed_and_oriented(mesh);
+}
+
 /// Stage 11 (host/vertex_data.hpp): normals and attributes at the vertices, each timed when asked for.
+/// A smoothed mesh gets area-weighted normals for NormalMode::Gradient: its vertices left the field's zero set.
 void add_vertex_data(Mesh& mesh, const float* xyz, std::size_t n, const Params& p,
                      const std::vector<ParticleAttribute>& attributes, StageTimer& timer) {
     if (p.normals == NormalMode::None && attributes.empty()) return;
     const float r = p.particle_radius, R = p.kernel_radius * r;
     std::optional<reference::ParticleGrid> grid;  // only the area-weighted normals need no particles
-    if (p.normals == NormalMode::Gradient || !attributes.empty()) grid.emplace(vertex_particle_grid(xyz, n, r, R));
+    const bool gradient = p.normals == NormalMode::Gradient && !p.smooth;
+    if (gradient || !attributes.empty()) grid.emplace(vertex_particle_grid(xyz, n, r, R));
     if (p.normals != NormalMode::None) {
         mesh.normals = area_weighted_normals(mesh);
-        if (p.normals == NormalMode::Gradient) mesh.normals = gradient_normals(mesh, *grid, r, R, mesh.normals);
+        if (gradient) mesh.normals = gradient_normals(mesh, *grid, r, R, mesh.normals);
         timer.stage("normals");
     }
     if (!attributes.empty()) {
@@ -668,7 +693,7 @@ Mesh Reconstructor::reconstruct(std::vector<float>&& xyz, const Params& params, 
         s.particles_outside_box = all - kept;
         return m;
     }
-    const bool read_later = params.normals != NormalMode::None || !attributes.empty();
+    const bool read_later = params.normals != NormalMode::None || !attributes.empty() || params.smooth;
     impl_->handed_over = read_later ? nullptr : &owned;
     struct Forget {  // whatever happens, the Impl does not keep a pointer to this frame's vector
         Impl& impl;
@@ -699,6 +724,7 @@ Mesh Reconstructor::reconstruct(const float* xyz, std::size_t count, const Param
         rt.end_frame();  // the frame's buffers stay pooled for the next one (trimmed when oversized)
         StageTimer timer(s);  // post-processing, normals and attributes: world units, after any scaling or split
         if (params.remove_components_below > 0.0f) remove_components(m, params, s, timer);
+        postprocess(m, xyz, count, params, s, timer);
         if (params.clip_box) clip_to_box(m, params, s, timer);  // last: every vertex ends in the box
         add_vertex_data(m, xyz, count, params, attributes, timer);
         s.time_ms.emplace_back("total", std::chrono::duration<double, std::milli>(Clock::now() - t0).count());

@@ -1,11 +1,13 @@
 // Test scenes on jittered lattices (spacing 2r, y up), defined in lattice units so the
 // particle count is independent of the radius. Jitter comes from splitmix64, not from <random>
 // distributions, so a seed gives the same bytes with every standard library.
+#include <algorithm>
 #include <cmath>
 #include <functional>
 
 #include <glm/glm.hpp>
 
+#include "analytic_bodies.hpp"
 #include "trilevel/io.hpp"
 
 namespace trilevel {
@@ -182,9 +184,24 @@ ParticleSet falling_drop(SceneBuilder& b, double t) {
     return b.take();
 }
 
+/// Bodies with a known surface (analytic_bodies.hpp), for measuring meshes against it: every
+/// lattice point inside the body, each jittered by up to a quarter spacing per axis (a rougher
+/// sampling than the other scenes', as a simulation leaves it). Centred on the origin.
+ParticleSet analytic_scene(SceneBuilder& b, const AnalyticBody& body) {
+    constexpr double kBodyJitter = 0.25;
+    const int n = int(std::ceil(std::max({body.a + body.b, body.b, body.c})));  // half-extent, lattice units
+    for (int j = -n; j <= n; ++j)
+        for (int k = -n; k <= n; ++k)
+            for (int i = -n; i <= n; ++i)
+                if (body.signed_distance(glm::dvec3(i, j, k)) <= 0.0) b.add(i, j, k, kBodyJitter);
+    return b.take();
+}
+
 }  // namespace
 
-std::vector<std::string> scene_names() { return {"block", "sphere", "dam-break", "pool-and-drop", "falling-drop"}; }
+std::vector<std::string> scene_names() {
+    return {"block", "sphere", "dam-break", "pool-and-drop", "falling-drop", "ball", "torus", "rounded-box"};
+}
 
 namespace {
 std::string known_scenes() {
@@ -205,6 +222,7 @@ ParticleSet generate_scene(const std::string& name, float radius, std::uint64_t 
     else if (name == "dam-break") set = dam_break(b);
     else if (name == "pool-and-drop") set = pool_and_drop(b);
     else if (name == "falling-drop") set = falling_drop(b, double(frame));
+    else if (const auto body = analytic_body(name, 0.5)) set = analytic_scene(b, *body);  // lattice units: r = 1/2
     else throw Error("unknown scene '" + name + "', expected one of: " + known_scenes());
     for (float c : set.positions)
         if (!std::isfinite(c)) throw Error("scene '" + name + "': radius " + std::to_string(radius) + " is too large for float coordinates");

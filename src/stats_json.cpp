@@ -24,6 +24,10 @@ std::string stats_to_json(const Stats& s, const Params& p) {
     j["particles_outside_box"] = s.particles_outside_box;
     j["components_removed"] = s.components_removed;
     j["clip_cap_triangles"] = s.clip_cap_triangles;
+    if (p.smooth || p.sliver_cleanup) {
+        j["sliver_edges_collapsed"] = s.sliver_edges_collapsed;
+        j["smoothing_reverted_moves"] = s.smoothing_reverted_moves;
+    }
     nlohmann::ordered_json t = nlohmann::ordered_json::object();
     for (const auto& [name, ms] : s.time_ms) t[name] = ms;
     j["time_ms"] = t;
@@ -49,7 +53,10 @@ std::string stats_to_json(const Stats& s, const Params& p) {
                        {"level2_tolerance", p.level2_tolerance},
                        {"crack_closing", p.crack_closing == CrackClosing::Collapse ? "collapse" : "patches"},
                        {"level_hysteresis", p.level_hysteresis},
-                       {"remove_components_below", p.remove_components_below}};
+                       {"remove_components_below", p.remove_components_below},
+                       {"smooth", p.smooth},
+                       {"smooth_iterations", p.smooth ? (p.smooth_iterations > 0 ? p.smooth_iterations : kDefaultSmoothIterations) : 0},
+                       {"sliver_cleanup", p.smooth || p.sliver_cleanup}};
     auto box = [](const Box& b) {
         return nlohmann::ordered_json{{"min", {b.min[0], b.min[1], b.min[2]}}, {"max", {b.max[0], b.max[1], b.max[2]}}};
     };

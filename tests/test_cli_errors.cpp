@@ -70,6 +70,21 @@ TEST_CASE("CLI: reconstruct rejects bad inputs and parameters before writing any
     require_cli_error(tmp, base + "-r 0.025 --stats '" + tmp.file("missing/s.json") + "'", out, "does not exist");
 }
 
+TEST_CASE("CLI: bad smoothing options give one exact usage line and exit 2", "[cli][smoothing]") {
+    TempDir tmp;
+    const std::string in = tmp.file("in.xyz"), out = tmp.file("out.ply");
+    trilevel::write_particles(in, trilevel::generate_scene("block", 0.025f));
+    const std::string base = "reconstruct '" + in + "' -o '" + out + "' -r 0.025 ";
+    for (const char* bad : {"0", "-3", "1001", "2.5", "ten"}) {
+        const std::string value = bad;
+        const CliResult r = run_cli(tmp, base + "--smooth-iterations " + bad);
+        INFO("--smooth-iterations " << bad << ": " << r.err);
+        CHECK(r.code == 2);
+        CHECK(r.err == "trilevel: error: --smooth-iterations must be a whole number from 1 to 1000, got '" + value + "'\n");
+        CHECK_FALSE(std::filesystem::exists(out));
+    }
+}
+
 TEST_CASE("CLI: generate, info and usage errors", "[cli]") {
     TempDir tmp;
     const std::string out = tmp.file("scene.ply");

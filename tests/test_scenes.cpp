@@ -60,7 +60,8 @@ TEST_CASE("scenes are deterministic for a seed and differ between seeds", "[scen
 
 TEST_CASE("scene counts are exact, independent of the radius, between 10k and 60k", "[scenes]") {
     const std::map<std::string, std::size_t> expected = {
-        {"block", 13824}, {"sphere", 14328}, {"dam-break", 13168}, {"pool-and-drop", 30356}, {"falling-drop", 11672}};
+        {"block", 13824}, {"sphere", 14328}, {"dam-break", 13168}, {"pool-and-drop", 30356}, {"falling-drop", 11672},
+        {"ball", 14147}, {"torus", 18996}, {"rounded-box", 8333}};
     REQUIRE(trilevel::scene_names().size() == expected.size());
     for (const auto& name : trilevel::scene_names()) {
         INFO(name);
@@ -79,8 +80,11 @@ TEST_CASE("scene spacing is about 2r, y is up, pool-and-drop has isolated splash
         const auto s = trilevel::generate_scene(name, r, 3);
         const auto d = nearest_distances(s.positions, 8 * r);
         const double median = median_finite(d);
-        CHECK(median > 1.8 * r);
-        CHECK(median < 2.2 * r);
+        // The analytic bodies are jittered by a quarter spacing per axis: their nearest
+        // neighbours are closer than the lattice step (measured 1.56r).
+        const bool rough = name == "ball" || name == "torus" || name == "rounded-box";
+        CHECK(median > (rough ? 1.4 : 1.8) * r);
+        CHECK(median < (rough ? 1.8 : 2.2) * r);
         if (name == "pool-and-drop") {
             const auto far = nearest_distances(s.positions, 3 * 2 * r);
             const auto isolated = std::count_if(far.begin(), far.end(), [](double x) { return !std::isfinite(x); });

@@ -106,7 +106,25 @@ struct Params {
     /// cut edge takes the lower level of the edge's two ends. A box that holds no fluid gives an
     /// empty mesh (no triangles), which counts as closed. Unset: no clipping.
     std::optional<Box> clip_box;
+    /// Smoothing for rendering (docs/smoothing.md): weighted Laplacian smoothing after Löschner et
+    /// al. (VMV 2023), each vertex weighted by how many particles it sees (the vertices of splash
+    /// and thin sheets barely move), the curvature shrink given back and a per-component volume correction
+    /// along the normals. Moves vertices only: the mesh stays closed and oriented by index, each
+    /// component keeps its volume. Turns sliver_cleanup on. With normals, NormalMode::Gradient gives
+    /// the area-weighted normals of the smoothed mesh (the field's gradient no longer matches
+    /// moved vertices). Off by default: the mesh is then exactly the unsmoothed one.
+    bool smooth = false;
+    /// Laplacian smoothing steps when `smooth` is on (more: smoother and slower); 0 picks kDefaultSmoothIterations.
+    int smooth_iterations = 0;
+    /// Collapses the needle triangles marching cubes makes where the surface passes near a lattice
+    /// point (an edge under 0.15 of its triangle's longest), by index, keeping the mesh a closed
+    /// oriented 2-manifold (link condition, no triangle turned over); on with `smooth`.
+    bool sliver_cleanup = false;
 };
+
+/// Smoothing iterations that Params::smooth uses by default (chosen on the analytic test bodies,
+/// bench/RESULTS-smoothing.md).
+constexpr int kDefaultSmoothIterations = 12;
 
 /// A named quantity per particle (input) or per mesh vertex (output): velocity, density, ...
 struct Attribute {
@@ -159,6 +177,8 @@ struct Stats {
     std::size_t triangles_level3 = 0;       ///< TriangleKind::Level3
     std::size_t triangles_patch = 0;        ///< TriangleKind::Patch (crack closing, DESIGN §7)
     std::size_t crack_vertices_collapsed = 0; ///< inner crack crossings merged away (CrackClosing::Collapse)
+    std::size_t sliver_edges_collapsed = 0;   ///< needle edges collapsed (Params::sliver_cleanup)
+    std::size_t smoothing_reverted_moves = 0; ///< smoothing moves taken back where a triangle would turn over
     std::size_t particles_outside_box = 0;  ///< particles Params::particle_box ignored (of `particles`)
     std::size_t components_removed = 0;     ///< components Params::remove_components_below dropped
     std::size_t clip_cap_triangles = 0;     ///< triangles of the caps Params::clip_box made (on the box faces)
@@ -278,7 +298,7 @@ public:
     Mesh reconstruct(const float* xyz, std::size_t count, const Params& params, Stats* stats,
                      const std::vector<ParticleAttribute>& attributes);
     /// The same, taking the positions (x, y, z per particle) over: once they are on the device they
-    /// are freed unless normals or attributes need them later, which lowers the peak memory by 12
+    /// are freed unless normals, attributes or smoothing need them later, which lowers the peak memory by 12
     /// bytes a particle (the CLI uses it).
     Mesh reconstruct(std::vector<float>&& xyz, const Params& params, Stats* stats = nullptr,
                      const std::vector<ParticleAttribute>& attributes = {});

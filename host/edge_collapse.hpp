@@ -1,0 +1,47 @@
+// Edge collapse by index on a closed oriented triangle mesh, restricted to a chosen set of vertices
+// (crack closing, crack_collapse.hpp; sliver cleanup, sliver_cleanup.hpp): merging vertex v into a
+// neighbour a removes the two triangles on edge (v, a), and v's other triangles take a instead.
+// A collapse is made only where it keeps the mesh a closed oriented 2-manifold (link condition:
+// v and a share no neighbour but the two apexes of the edge; no tetrahedron folded shut) and
+// turns no triangle over; otherwise nothing changes.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "trilevel/trilevel.hpp"
+
+namespace trilevel {
+
+class EdgeCollapser {
+public:
+    /// `vertices`: every vertex that collapse() may be given (as v or a); only those get triangle
+    /// lists, so one pass over the triangles is all the mesh-wide work. Duplicates are fine.
+    EdgeCollapser(Mesh& mesh, const std::vector<std::uint32_t>& vertices);
+    /// Merges vertex v into its neighbour a (a keeps its position); false (nothing changed) where
+    /// that is not safe or (v, a) is no edge (any more).
+    bool collapse(std::uint32_t v, std::uint32_t a);
+    /// Drops the dead vertices and triangles, keeping the order of the rest (positions, levels,
+    /// triangle kinds; the mesh has no normals or attributes yet).
+    void compact();
+    glm::dvec3 position(std::uint32_t v) const {
+        return {m_.positions[3 * v], m_.positions[3 * v + 1], m_.positions[3 * v + 2]};
+    }
+    bool dead(std::uint32_t v) const { return dead_vertex_[v] != 0; }
+
+private:
+    Mesh& m_;
+    std::vector<std::int32_t> list_;                 // vertex -> its triangle list, -1: not listed
+    std::vector<std::vector<std::uint32_t>> tris_;   // triangles around each listed vertex (dead ones pruned lazily)
+    std::vector<std::uint8_t> dead_tri_, dead_vertex_;
+    std::vector<std::uint32_t> edge_, rest_, nv_, na_;  // collapse()'s scratch, kept to spare allocations
+
+    std::uint32_t* corners(std::uint32_t t) { return m_.triangles.data() + 3 * std::size_t(t); }
+    std::vector<std::uint32_t>& alive_triangles(std::uint32_t v);
+    bool flips(std::uint32_t t, std::uint32_t v, glm::dvec3 to);
+};
+
+}  // namespace trilevel

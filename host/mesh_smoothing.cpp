@@ -1,0 +1,340 @@
+// Weighted Laplacian smoothing with volume correction; see mesh_smoothing.hpp.
+#include "mesh_smoothing.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
+#include <glm/glm.hpp>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "mesh_quality.hpp"
+#include "mesh_topology.hpp"
+
+namespace trilevel {
+namespace {
+
+constexpr double kPi = 3.141592653589793;
+/// Shares of the flat surface's kernel sum at which a vertex starts to move and moves fully
+/// (smoothing_weights): a lone splash particle's vertices see about 0.22 of it and stay put.
+constexpr double kWeightLow = 0.45, kWeightHigh = 0.8;
+
+template <class F>
+void for_vertices(std::size_t n, F&& f) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 2048), [&](const auto& range) {
+        for (std::size_t v = range.begin(); v != range.end(); ++v) f(v);
+    });
+}
+
+/// Particles binned on a dense grid over the mesh's bounding box grown by 2R (a particle further
+/// away is no neighbour of a particle within R of a vertex), cells of R/2 (a query scans 5^3 cells,
+/// 15.6 R^3, against 27 R^3 with cells of R), grown where the box would need more than a few cells
+/// per particle. Counting sort: cell order, then input order.
+class DenseGrid {
+public:
+    DenseGrid(const Mesh& mesh, const float* xyz, std::size_t n, double R) : R2_(R * R) {
+        glm::dvec3 lo(INFINITY), hi(-INFINITY);
+        for (std::size_t i = 0; i < mesh.positions.size(); i += 3) {
+            const glm::dvec3 p(mesh.positions[i], mesh.positions[i + 1], mesh.positions[i + 2]);
+            lo = glm::min(lo, p);
+            hi = glm::max(hi, p);
+        }
+        lo_ = lo - 2.0 * R;
+        const glm::dvec3 extent = hi + 2.0 * R - lo_;
+        cell_ = 0.5 * R;
+        const double limit = std::max(4.0 * double(n), double(1 << 20));
+        while ((std::floor(extent.x / cell_) + 1) * (std::floor(extent.y / cell_) + 1) * (std::floor(extent.z / cell_) + 1) > limit)
+            cell_ *= 1.5;
+        dims_ = glm::ivec3(glm::floor(extent / cell_)) + 1;
+        reach_ = int(std::ceil(R / cell_));
+        std::vector<std::uint32_t> cell_of(n);
+        start_.assign(std::size_t(dims_.x) * dims_.y * dims_.z + 1, 0);
+        for (std::size_t j = 0; j < n; ++j) {
+            const glm::dvec3 p(xyz[3 * j], xyz[3 * j + 1], xyz[3 * j + 2]);
+            const glm::dvec3 f = (p - lo_) / cell_;
+            if (!(f.x >= 0 && f.y >= 0 && f.z >= 0 && f.x < dims_.x && f.y < dims_.y && f.z < dims_.z)) {
+                cell_of[j] = UINT32_MAX;
+                continue;
+            }
+            cell_of[j] = std::uint32_t(index(glm::ivec3(f)));
+            ++start_[cell_of[j] + 1];
+        }
+        for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
+        std::vector<std::uint32_t> fill(start_.begin(), start_.end() - 1);
+        id_.resize(start_.back());
+        pos_.resize(start_.back());
+        for (std::size_t j = 0; j < n; ++j)
+            if (cell_of[j] != UINT32_MAX) {
+                const std::uint32_t s = fill[cell_of[j]]++;
+                id_[s] = std::uint32_t(j);
+                pos_[s] = glm::dvec3(xyz[3 * j], xyz[3 * j + 1], xyz[3 * j + 2]);
+            }
+    }
+
+    /// f(slot, d2) for every binned particle within R of p, in cell order (a fixed order).
+    template <class F>
+    void for_each_within(glm::dvec3 p, F&& f) const {
+        const glm::ivec3 c(glm::floor((p - lo_) / cell_));
+        for (int z = std::max(c.z - reach_, 0); z <= std::min(c.z + reach_, dims_.z - 1); ++z)
+            for (int y = std::max(c.y - reach_, 0); y <= std::min(c.y + reach_, dims_.y - 1); ++y)
+                for (int x = std::max(c.x - reach_, 0); x <= std::min(c.x + reach_, dims_.x - 1); ++x) {
+                    const std::size_t k = index({x, y, z});
+                    for (std::uint32_t s = start_[k]; s < start_[k + 1]; ++s) {
+                        const glm::dvec3 d = p - pos_[s];
+                        const double d2 = glm::dot(d, d);
+                        if (d2 < R2_) f(s, d2);
+                    }
+                }
+    }
+    std::size_t slots() const { return pos_.size(); }
+    glm::dvec3 position(std::size_t slot) const { return pos_[slot]; }
+
+private:
+    std::size_t index(glm::ivec3 c) const { return (std::size_t(c.z) * dims_.y + c.y) * dims_.x + c.x; }
+    double R2_, cell_ = 0;
+    glm::dvec3 lo_;
+    glm::ivec3 dims_{0};
+    int reach_ = 1;  ///< cells a query scans to each side
+    std::vector<std::uint32_t> start_, id_;
+    std::vector<glm::dvec3> pos_;
+};
+
+/// Compressed rows: the items of row v are item[offset[v] .. offset[v + 1]).
+struct Rows {
+    std::vector<std::uint32_t> offset, item;
+};
+
+/// Neighbours of each vertex across the triangles' edges, ascending, each once.
+Rows vertex_neighbours(const Mesh& mesh) {
+    const std::size_t nv = mesh.vertex_count();
+    const auto& t = mesh.triangles;
+    Rows g;
+    g.offset.assign(nv + 1, 0);
+    for (std::size_t i = 0; i < t.size(); ++i) g.offset[t[i] + 1] += 2;
+    for (std::size_t v = 0; v < nv; ++v) g.offset[v + 1] += g.offset[v];
+    std::vector<std::uint32_t> fill(g.offset.begin(), g.offset.end() - 1);
+    g.item.resize(g.offset.back());
+    for (std::size_t i = 0; i < t.size(); i += 3)
+        for (int k = 0; k < 3; ++k) {
+            g.item[fill[t[i + k]]++] = t[i + (k + 1) % 3];
+            g.item[fill[t[i + k]]++] = t[i + (k + 2) % 3];
+        }
+    // Sort and drop duplicates per row, then close the gaps (serial: a prefix over rows).
+    std::vector<std::uint32_t> kept(nv);
+    for_vertices(nv, [&](std::size_t v) {
+        auto b = g.item.begin() + g.offset[v], e = g.item.begin() + g.offset[v + 1];
+        std::sort(b, e);
+        kept[v] = std::uint32_t(std::unique(b, e) - b);
+    });
+    std::size_t w = 0;
+    for (std::size_t v = 0; v < nv; ++v) {
+        const std::uint32_t from = g.offset[v];
+        g.offset[v] = std::uint32_t(w);
+        for (std::uint32_t k = 0; k < kept[v]; ++k) g.item[w++] = g.item[from + k];
+    }
+    g.offset[nv] = std::uint32_t(w);
+    g.item.resize(w);
+    return g;
+}
+
+/// Triangles around each vertex, ascending.
+Rows vertex_triangles(const Mesh& mesh) {
+    const std::size_t nv = mesh.vertex_count();
+    const auto& t = mesh.triangles;
+    Rows g;
+    g.offset.assign(nv + 1, 0);
+    for (std::size_t i = 0; i < t.size(); ++i) ++g.offset[t[i] + 1];
+    for (std::size_t v = 0; v < nv; ++v) g.offset[v + 1] += g.offset[v];
+    std::vector<std::uint32_t> fill(g.offset.begin(), g.offset.end() - 1);
+    g.item.resize(t.size());
+    for (std::size_t i = 0; i < t.size(); ++i) g.item[fill[t[i]]++] = std::uint32_t(i / 3);
+    return g;
+}
+
+glm::dvec3 face_cross(const std::vector<glm::dvec3>& p, const std::uint32_t* c) {
+    return glm::cross(p[c[1]] - p[c[0]], p[c[2]] - p[c[0]]);
+}
+
+}  // namespace
+
+std::vector<float> smoothing_weights(const Mesh& mesh, const float* xyz, std::size_t count, float r, float R) {
+    const std::size_t nv = mesh.vertex_count();
+    std::vector<float> w(nv, 0.0f);
+    if (nv == 0 || count == 0) return w;
+    const DenseGrid grid(mesh, xyz, count, R);
+    const double R2 = double(R) * R;
+    // The kernel sum at a vertex on the flat surface of particles at rest spacing 2r: half the
+    // interior's, rho * 4 pi R^3 * 16/315 (the integral of (1 - d^2/R^2)^3 over the ball), less
+    // the layer of about r between the surface and the outer particles (a factor of about 0.7).
+    const double flat = 0.5 * 0.7 * (4.0 * kPi * 16.0 / 315.0) * std::pow(double(R) / (2.0 * r), 3.0);
+    for_vertices(nv, [&](std::size_t v) {
+        const glm::dvec3 p(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]);
+        double sum = 0;
+        grid.for_each_within(p, [&](std::size_t, double d2) {
+            const double x = 1.0 - d2 / R2;
+            sum += x * x * x;
+        });
+        const double x = std::clamp((sum / flat - kWeightLow) / (kWeightHigh - kWeightLow), 0.0, 1.0);
+        w[v] = float(x * x * (3.0 - 2.0 * x));
+    });
+    return w;
+}
+
+SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const SmoothingSettings& settings) {
+    SmoothingReport report;
+    const std::size_t nv = mesh.vertex_count(), nt = mesh.triangle_count();
+    if (weights.size() != nv) throw Error("smoothing: " + std::to_string(weights.size()) + " weights for " + std::to_string(nv) + " vertices");
+    if (nv == 0 || settings.iterations <= 0) return report;
+    const Rows nbr = vertex_neighbours(mesh), tri = vertex_triangles(mesh);
+    const MeshComponents comp = mesh_components(mesh);
+    const std::vector<double> volume0 = component_volumes(mesh, comp.of_vertex, comp.count);
+    for (double v : volume0) report.volume_before += v;
+    std::vector<float> w = weights;  // small components keep their vertices
+    for (std::size_t v = 0; v < nv; ++v)
+        if (std::fabs(volume0[comp.of_vertex[v]]) < settings.min_volume) w[v] = 0.0f;
+
+    std::vector<glm::dvec3> p(nv), q(nv);
+    for (std::size_t v = 0; v < nv; ++v) p[v] = {mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]};
+    const std::uint32_t* corners = mesh.triangles.data();
+    std::vector<glm::dvec3> n0(nt);  // orientation before smoothing: no triangle may turn against it
+    tbb::parallel_for(std::size_t(0), nt, [&](std::size_t t) { n0[t] = face_cross(p, corners + 3 * t); });
+    std::vector<std::uint8_t> bad(nt);
+
+    // Takes back the moves (p -> q) at every corner of a triangle that q turns over, until none is
+    // left. After the first pass over all triangles only those around the vertices just taken back
+    // can change; each round's set of vertices is taken back as a whole, so the result does not
+    // depend on any order (p itself turns nothing over, so this ends).
+    std::vector<std::uint8_t> mark(std::max(nv, nt), 0);
+    auto turned = [&](std::size_t t) { return glm::dot(face_cross(q, corners + 3 * t), n0[t]) <= 0.0 && n0[t] != glm::dvec3(0.0); };
+    auto guard = [&] {
+        tbb::parallel_for(std::size_t(0), nt, [&](std::size_t t) { bad[t] = turned(t); });
+        std::vector<std::uint32_t> bad_list, undo, check;
+        for (std::size_t t = 0; t < nt; ++t)
+            if (bad[t]) bad_list.push_back(std::uint32_t(t));
+        while (!bad_list.empty()) {
+            undo.clear();
+            for (std::uint32_t t : bad_list)
+                for (int k = 0; k < 3; ++k) {
+                    const std::uint32_t v = corners[3 * std::size_t(t) + k];
+                    if (q[v] != p[v] && !mark[v]) {
+                        mark[v] = 1;
+                        undo.push_back(v);
+                    }
+                }
+            for (std::uint32_t v : undo) {
+                q[v] = p[v];
+                mark[v] = 0;
+            }
+            report.reverted_moves += undo.size();
+            check.clear();
+            for (std::uint32_t v : undo)
+                for (std::uint32_t k = tri.offset[v]; k < tri.offset[v + 1]; ++k)
+                    if (!mark[tri.item[k]]) {
+                        mark[tri.item[k]] = 1;
+                        check.push_back(tri.item[k]);
+                    }
+            bad_list.clear();
+            for (std::uint32_t t : check) {
+                mark[t] = 0;
+                if (turned(t)) bad_list.push_back(t);
+            }
+        }
+    };
+    std::vector<glm::dvec3> normal(nv, glm::dvec3(0.0));
+    auto vertex_normals = [&] {
+        for_vertices(nv, [&](std::size_t v) {
+            glm::dvec3 n(0.0);
+            for (std::uint32_t k = tri.offset[v]; k < tri.offset[v + 1]; ++k) n += face_cross(p, corners + 3 * tri.item[k]);
+            const double l = glm::length(n);
+            normal[v] = l > 0 ? n / l : glm::dvec3(0.0);
+        });
+    };
+    auto laplacian_step = [&](double factor) {
+        for_vertices(nv, [&](std::size_t v) {
+            const std::uint32_t b = nbr.offset[v], e = nbr.offset[v + 1];
+            if (b == e || w[v] <= 0.0f) {
+                q[v] = p[v];
+                return;
+            }
+            glm::dvec3 mean(0.0);
+            for (std::uint32_t k = b; k < e; ++k) mean += p[nbr.item[k]];
+            mean /= double(e - b);
+            q[v] = p[v] + (factor * double(w[v])) * (mean - p[v]);
+        });
+        guard();
+        std::swap(p, q);
+    };
+    for (int it = 0; it < settings.iterations; ++it) {
+        laplacian_step(settings.lambda);
+        if (settings.mu != 0.0) laplacian_step(settings.mu);
+    }
+
+    if (settings.shrink_passes > 0) {
+        // Laplacian steps shrink a surface by an amount that follows its curvature, slowly along
+        // it; the bumps they remove change from vertex to vertex. So the normal part of each
+        // vertex's whole move, averaged over a wide neighbourhood (shrink_passes rounds of
+        // averaging over the 1-ring, a reach of about sqrt(shrink_passes) edges), is the shrink:
+        // given back along the normals, it keeps the shape (a torus' tube stays round) while the
+        // bumps stay removed.
+        vertex_normals();
+        std::vector<double> sn(nv), tmp(nv);
+        for_vertices(nv, [&](std::size_t v) {
+            const glm::dvec3 o(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]);
+            sn[v] = glm::dot(p[v] - o, normal[v]);
+        });
+        for (int pass = 0; pass < settings.shrink_passes; ++pass) {
+            for_vertices(nv, [&](std::size_t v) {
+                double sum = sn[v];
+                for (std::uint32_t k = nbr.offset[v]; k < nbr.offset[v + 1]; ++k) sum += sn[nbr.item[k]];
+                tmp[v] = sum / double(nbr.offset[v + 1] - nbr.offset[v] + 1);
+            });
+            std::swap(sn, tmp);
+        }
+        for_vertices(nv, [&](std::size_t v) { q[v] = p[v] - (sn[v] * double(w[v])) * normal[v]; });
+        guard();
+        std::swap(p, q);
+    }
+    if (settings.keep_volume) {
+        // Newton steps on the offset d of each component along its unit vertex normals n_v: the
+        // volume's derivative is sum_v n_v . dV/dp_v, and dV/dp_v = (sum of v's triangles' cross
+        // products) / 6, whose direction n_v is: the slope is the sum of their lengths / 6.
+        // A step is bounded by a quarter of the component's volume over its area (a twelfth of a
+        // ball's radius), so that a tiny component shrunk by the steps is regrown gradually.
+        for (int pass = 0; pass < 8; ++pass) {
+            std::vector<double> volume(comp.count, 0.0), slope(comp.count, 0.0);
+            for (std::size_t t = 0; t < nt; ++t) {
+                const std::uint32_t* c = corners + 3 * t;
+                volume[comp.of_vertex[c[0]]] += glm::dot(p[c[0]], face_cross(p, c)) / 6.0;
+            }
+            std::vector<double> gradient(nv);
+            for_vertices(nv, [&](std::size_t v) {
+                glm::dvec3 n(0.0);
+                for (std::uint32_t k = tri.offset[v]; k < tri.offset[v + 1]; ++k) n += face_cross(p, corners + 3 * tri.item[k]);
+                gradient[v] = glm::length(n) / 6.0;
+                normal[v] = gradient[v] > 0 ? n / (6.0 * gradient[v]) : glm::dvec3(0.0);
+            });
+            for (std::size_t v = 0; v < nv; ++v) slope[comp.of_vertex[v]] += gradient[v];
+            // volume[] is taken about the origin, volume0 about each component's first vertex:
+            // equal for a closed component up to rounding.
+            for_vertices(nv, [&](std::size_t v) {
+                const std::uint32_t k = comp.of_vertex[v];
+                if (std::fabs(volume0[k]) < settings.min_volume) {
+                    q[v] = p[v];
+                    return;
+                }
+                const double limit = 0.25 * std::fabs(volume0[k]) / std::max(slope[k], 1e-300);
+                const double d = slope[k] > 0 ? std::clamp((volume0[k] - volume[k]) / slope[k], -limit, limit) : 0.0;
+                q[v] = p[v] + d * normal[v];
+            });
+            guard();
+            std::swap(p, q);
+        }
+    }
+    for (std::size_t v = 0; v < nv; ++v)
+        for (int a = 0; a < 3; ++a) mesh.positions[3 * v + a] = float(p[v][a]);
+    for (double v : component_volumes(mesh, comp.of_vertex, comp.count)) report.volume_after += v;
+    return report;
+}
+
+}  // namespace trilevel

@@ -1,0 +1,42 @@
+// Sliver cleanup; see sliver_cleanup.hpp.
+#include "sliver_cleanup.hpp"
+
+#include <algorithm>
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "edge_collapse.hpp"
+
+namespace trilevel {
+
+std::size_t collapse_slivers(Mesh& mesh) {
+    // The short edges, as (lower, higher) vertex pairs, in the order of their first triangle.
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;
+    const auto& t = mesh.triangles;
+    auto at = [&](std::uint32_t v) {
+        return glm::dvec3(mesh.positions[3 * std::size_t(v)], mesh.positions[3 * std::size_t(v) + 1], mesh.positions[3 * std::size_t(v) + 2]);
+    };
+    for (std::size_t i = 0; i + 2 < t.size(); i += 3) {
+        double len[3];
+        for (int k = 0; k < 3; ++k) len[k] = glm::distance(at(t[i + k]), at(t[i + (k + 1) % 3]));
+        const int s = len[0] <= len[1] && len[0] <= len[2] ? 0 : len[1] <= len[2] ? 1 : 2;
+        if (!(len[s] < kSliverEdgeRatio * std::max({len[0], len[1], len[2]}))) continue;
+        const std::uint32_t a = t[i + s], b = t[i + (s + 1) % 3];
+        edges.emplace_back(std::min(a, b), std::max(a, b));
+    }
+    if (edges.empty()) return 0;
+    std::vector<std::uint32_t> vertices;
+    vertices.reserve(2 * edges.size());
+    for (auto [a, b] : edges) vertices.insert(vertices.end(), {a, b});
+    EdgeCollapser c(mesh, vertices);
+    std::size_t collapsed = 0;
+    for (auto [a, b] : edges)  // an edge listed twice, or gone with an earlier collapse, is refused
+        if (!c.dead(a) && !c.dead(b) && c.collapse(b, a)) ++collapsed;
+    if (collapsed) c.compact();
+    return collapsed;
+}
+
+}  // namespace trilevel
