@@ -2,7 +2,7 @@
 // and the level of each cell. Cell sums use 64-bit fixed-point atomics so the mean does not depend
 // on the order in which work-items add (DESIGN §6).
 
-#define KAPPA_FIXED 1048576.0f  /* 2^20 */
+// Uses: contract.h (KAPPA_FIXED, FLAG_SURFACE), hash_table.cl, particle_binning.cl, surface_cells.cl (coarse_of).
 
 inline float3 outward_normal(float3 gradient) {
     return length(gradient) > 0.0f ? -normalize(gradient) : (float3)(0.0f);

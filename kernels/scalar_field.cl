@@ -5,6 +5,8 @@
 // Sums use y_j = x_j - x (translation invariant, better float precision):
 //   J = (sum y_j (x) grad k_j - ybar (x) sum grad k_j) / K,  grad k_j = -6 (1 - s_j^2)^2 (x - x_j) / R^2.
 // Build options: EV_LOW, EV_HIGH.
+// Uses: contract.h (CLAIM_*, MAX_CELL_POINTS), hash_table.cl, particle_binning.cl (gather_candidates),
+// refine_points.cl (cell_level, cell_has_point).
 
 // Largest real part of the eigenvalues of a 3x3 matrix (rows a, b, c) from its characteristic
 // polynomial l^3 - t l^2 + m l - d (t: trace, m: sum of principal 2x2 minors, d: determinant),
@@ -126,7 +128,7 @@ __kernel void scalar_field(__global const uint* pending, uint count, __global co
 
 // Candidate particles of one coarse cell gathered into local memory (paper Fig. 3: the particles
 // that influence the cell's points lie within R of the cell box). A point shared by several cells
-// is evaluated once: in the passes that insert (CLAIM_INSERTED, the main pass, and CLAIM_CROSSED,
+// is evaluated once: in the passes that insert (CLAIM_INSERTED, the main pass, and CLAIM_REFINED_EDGES,
 // edge refinement) by the work-group whose insert created it, which spares a separate insert
 // pass and a second table lookup per point; in the other passes
 // by the work-group that claims it first (its NaN "pending" value becomes CLAIMED). Each
@@ -139,7 +141,6 @@ __kernel void scalar_field(__global const uint* pending, uint count, __global co
 #define PENDING_BITS 0x7fc00000u
 #define CLAIMED_BITS 0x7fc00001u
 #define LANES 8
-#define MAX_CELL_POINTS 729  /* (8 + 1)^3: uniform cell r/2 */
 #define NOT_CLAIMED 0xffffffffu
 
 // The candidates within R of the box around the eight points X, Y, Z, in candidate order, as
@@ -163,11 +164,7 @@ inline uint near_candidates(float8 X, float8 Y, float8 Z, __local const float4* 
     return n;
 }
 
-// Which pending points of its cell a work-group claims (ClaimPoints in src/device_stages.hpp).
-#define CLAIM_LEVEL 0           /* the points of the cell's level */
-#define CLAIM_EDGE_MIDPOINTS 1  /* one odd coordinate: midpoints of level-2 edges (stage 8b) */
-#define CLAIM_INSERTED 2        /* inserts the points of the cell's level (stage 5) and takes those it created */
-#define CLAIM_CROSSED 3         /* inserts the midpoints of the level-2 cell's crossed edges (stage 8b), takes those it created */
+// Which pending points of its cell a work-group claims: CLAIM_* in contract.h.
 
 // Stage 8b (host/edge_refinement.hpp) for one level-2 cell: the midpoints of its level-2 edges
 // whose ends the surface separates (phi < 0 at one end only), inserted; the slots of those this
@@ -214,7 +211,7 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
                                  int cells_are_bins, volatile __global int* table_stats, uint2 shift) {
     const int4 c = cells[get_group_id(0)];
     const uint lid = get_local_id(0), lsize = get_local_size(0);
-    if (claim == CLAIM_CROSSED) {  // first the midpoints: a cell that creates none gathers nothing
+    if (claim == CLAIM_REFINED_EDGES) {  // first the midpoints: a cell that creates none gathers nothing
         if (cell_level(c.w) != 2) return;
         if (lid == 0) *claimed_count = 0;
         barrier(CLK_LOCAL_MEM_FENCE);
@@ -238,14 +235,14 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
     const int side = coarse_steps + 1;
     const int points = side * side * side;
     const bool fits = n_cand <= MAX_CANDIDATES && points <= MAX_CELL_POINTS;
-    const bool creates = claim == CLAIM_INSERTED || claim == CLAIM_CROSSED;  // the points this group created
+    const bool creates = claim == CLAIM_INSERTED || claim == CLAIM_REFINED_EDGES;  // the points this group created
     if (!fits && !creates) {
         if (lid == 0) atomic_or(overflow, 1);
         return;
     }
-    if (lid == 0 && claim != CLAIM_CROSSED) *claimed_count = 0;  // CLAIM_INSERTED: first the count of points created
+    if (lid == 0 && claim != CLAIM_REFINED_EDGES) *claimed_count = 0;  // CLAIM_INSERTED: first the count of points created
     barrier(CLK_LOCAL_MEM_FENCE);
-    for (int l = (int)lid; l < points && claim != CLAIM_CROSSED; l += (int)lsize) {  // claim the cell's pending points
+    for (int l = (int)lid; l < points && claim != CLAIM_REFINED_EDGES; l += (int)lsize) {  // claim the cell's pending points
         if (fits) claimed[l] = NOT_CLAIMED;
         int3 o = (int3)(l % side, (l / side) % side, l / (side * side));
         const int odd = (o.x & 1) + (o.y & 1) + (o.z & 1);
@@ -272,7 +269,7 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
         if (lid == 0) atomic_or(overflow, 1);
         return;
     }
-    if (lid == 0 && claim != CLAIM_CROSSED) {  // in lattice order, so that eight consecutive points lie close together
+    if (lid == 0 && claim != CLAIM_REFINED_EDGES) {  // in lattice order, so that eight consecutive points lie close together
         uint n = 0;
         for (int l = 0; l < points; ++l)
             if (claimed[l] != NOT_CLAIMED) claimed[n++] = claimed[l];

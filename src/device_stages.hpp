@@ -12,6 +12,7 @@
 
 #include "coarse_cells.hpp"
 #include "fine_point_map.hpp"
+#include "kernel_contract.hpp"
 #include "opencl_runtime.hpp"
 
 namespace trilevel {
@@ -83,13 +84,8 @@ struct FinePoints {
     void* mapped_keys = nullptr;  ///< while mapped for the host (map_fine_points)
     float* mapped_values = nullptr;
 };
-/// Which pending points of its cell a work-group claims (scalar_field.cl, CLAIM_*).
-enum class ClaimPoints {
-    Level = 0,          ///< the points of the cell's level (and its cube centres where flagged)
-    EdgeMidpoints = 1,  ///< one odd coordinate: midpoints of level-2 edges (stage 8b)
-    Inserted = 2,       ///< inserts the points of its level and takes those it created
-    Crossed = 3,        ///< inserts the midpoints of a level-2 cell's crossed edges, takes those it created
-};
+/// Which pending points of its cell a work-group claims (kernels/contract.h, CLAIM_*).
+using contract::ClaimPoints;
 /// Inserts the points of `cells` (growing the table as needed) and evaluates the new ones, in one
 /// pass where the table has room. `cube_centres`, empty or one flag per cell: the level-2 cells
 /// flagged get the centres of their level-2 cubes too (the level-2 check's points), in the same

@@ -13,13 +13,9 @@
 
 namespace trilevel {
 
-std::string_view embedded_kernel_source(std::string_view name);  // generated at build time
+std::string embedded_program_source();  // generated at build time: kernels/kernels.cmake in order
 
 namespace {
-
-// Program sources in dependency order: the hash and the neighbour loop come first.
-constexpr const char* kKernelFiles[] = {"hash_table",   "particle_binning", "color_field", "surface_cells",
-                                        "curvature",    "refine_points",    "scalar_field"};
 
 std::string type_name(cl_device_type t) {
     if (t & CL_DEVICE_TYPE_GPU) return "GPU";
@@ -170,8 +166,7 @@ std::optional<cl::Program> OpenCLRuntime::build_from_binary(std::optional<std::v
 }
 
 cl::Program OpenCLRuntime::build_program(int bits) {
-    std::string source;
-    for (const char* f : kKernelFiles) source += std::string(embedded_kernel_source(f)) + "\n";
+    const std::string source = embedded_program_source();
     const std::string options = build_options(max_candidates_, serial_gather()) + " -DFINE_KEY_BITS=" + std::to_string(bits);
     // The cached binary of exactly this source, these options and this device and driver, if any
     // (program_cache.hpp); one the driver rejects is rebuilt from source and replaced.

@@ -8,6 +8,7 @@
 
 #include "device_stages.hpp"
 #include "edge_refinement.hpp"
+#include "kernel_launch.hpp"
 #include "reference/reference_stages.hpp"
 #include "stage_constants.hpp"
 #include "test_support.hpp"
@@ -103,10 +104,7 @@ Inserted insert_keys(const std::vector<cl_ulong>& in, std::size_t count, std::si
     cl::Buffer stats(rt.context(), CL_MEM_READ_WRITE, 2 * sizeof(cl_int));
     rt.queue().enqueueFillBuffer(keys, ~cl_ulong{0}, 0, capacity * sizeof(cl_ulong));
     rt.queue().enqueueFillBuffer(stats, cl_int{0}, 0, 2 * sizeof(cl_int));
-    auto& k = rt.kernel("hash_insert_keys");
-    k.setArg(0, keys_in); k.setArg(1, cl_uint(count)); k.setArg(2, keys); k.setArg(3, cl_ulong(capacity));
-    k.setArg(4, slots); k.setArg(5, stats);
-    rt.run("hash_insert_keys", count);
+    kernels::hash_insert_keys(rt, kernels::Items{count}, keys_in, cl_uint(count), keys, cl_ulong(capacity), slots, stats);
     rt.finish();
     return {read_buffer<cl_ulong>(rt, keys, capacity), read_buffer<cl_int>(rt, stats, 2),
             read_buffer<cl_long>(rt, slots, count)};
