@@ -397,16 +397,32 @@ DeviceBuffer cell_buffer(OpenCLRuntime& rt, const std::vector<CoarseCell>& cells
     return upload(rt, data, "cell list");
 }
 
-void claim_leftovers(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf, std::size_t cell_count,
-                     ClaimPoints claim, const LatticeFrame& frame, const BinnedParticles& b, float r, float R);
+/// Stage 6 over every point inserted but not evaluated yet, one work-item a point: each unique point
+/// exactly once.
+void evaluate_pending(OpenCLRuntime& rt, FinePoints& p, const LatticeFrame& frame, const BinnedParticles& b, float r,
+                      float R) {
+    DeviceBuffer count = rt.buffer(sizeof(cl_uint), "pending count");
+    DeviceBuffer pending = rt.buffer(p.inserted * sizeof(cl_uint), "pending points");
+    rt.queue().enqueueFillBuffer(count, cl_uint{0}, 0, sizeof(cl_uint));
+    use_key_width(rt, p);
+    kernels::collect_pending(rt, Items{p.hash.capacity}, p.hash.keys, p.values, cl_ulong(p.hash.capacity), count, pending);
+    const cl_uint todo = read_buffer<cl_uint>(rt, count, 1)[0];
+    kernels::scalar_field(rt, Items{todo}, pending, todo, p.hash.keys, p.values, frame.step, b.sorted, 1.0f / b.cell,
+                          b.bins.keys, cl_ulong(b.bins.capacity), b.range, r, R, key_shifts(p.layout));
+    rt.finish();
+}
 
-/// Stage 6 over the pending points of `cell_count` cells, one work-group per cell with candidates
-/// gathered in local memory; cells whose candidates do not fit leave their points to the per-point
-/// kernel. `claim`: which pending points of its cell a work-group takes (scalar_field.cl, CLAIM_*).
-/// ClaimPoints::Inserted and ::Crossed insert the points they evaluate (stage 5 and 6 in one pass;
-/// stage 8b) and return false when the table filled up: the host then grows it and goes on.
-bool evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf, std::size_t cell_count,
-                    ClaimPoints claim, const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
+/// What one pass of scalar_field_cells left to do.
+struct CellPass {
+    bool table_full = false;  ///< an inserting pass ran out of table: nothing else is known
+    bool overflow = false;    ///< some cell's candidates did not fit: its points are still pending
+};
+
+/// One pass of scalar_field_cells over `cell_count` cells, one work-group per cell with candidates
+/// gathered in local memory. `claim`: which pending points of its cell a work-group takes
+/// (kernels/contract.h, CLAIM_*); the inserting modes also count what they inserted.
+CellPass run_cell_pass(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf, std::size_t cell_count,
+                       ClaimPoints claim, const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
     DeviceBuffer overflow = rt.buffer(sizeof(cl_int), "scalar field overflow flag");
     rt.queue().enqueueFillBuffer(overflow, cl_int{0}, 0, sizeof(cl_int));
     use_key_width(rt, p);
@@ -416,26 +432,33 @@ bool evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf
                                 b.bins.keys, cl_ulong(b.bins.capacity), b.range, r, R, overflow, candidate_lists(rt),
                                 kernels::Local<cl_uint>{contract::kMaxCellPoints}, kernels::Local<cl_uint>{1},
                                 cells_are_bins, p.hash.stats, key_shifts(p.layout));
-    const bool overflow_seen = read_buffer<cl_int>(rt, overflow, 1)[0] != 0;
+    CellPass pass;
+    pass.overflow = read_buffer<cl_int>(rt, overflow, 1)[0] != 0;
     if (contract::inserts(claim)) {
         const HashCounters c = read_counters(rt, p.hash);
         p.inserted = c.inserted;
-        if (c.overflow) return false;
+        pass.table_full = c.overflow;
     }
-    if (overflow_seen) claim_leftovers(rt, p, cell_buf, cell_count, claim, frame, b, r, R);
-    return true;
+    return pass;
 }
 
-/// Points left pending by a cell whose candidates did not fit: in the passes that create points
-/// the other cells holding them claim them, as the claiming passes do; what no cell can take goes
-/// to the per-point kernel. So no point's kernel depends on timing.
-void claim_leftovers(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf, std::size_t cell_count,
-                     ClaimPoints claim, const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
-    if (contract::inserts(claim))
-        evaluate_cells(rt, p, cell_buf, cell_count,
-                       claim == ClaimPoints::Inserted ? ClaimPoints::Level : ClaimPoints::EdgeMidpoints, frame, b, r, R);
-    else
-        evaluate_pending(rt, p, frame, b, r, R);
+/// Stage 6 over the points of `cell_count` cells that `claim` takes, then over what cells whose
+/// candidates did not fit left pending: after an inserting pass the other cells holding those
+/// points claim them (the claiming pass of the same points), and what no cell can take goes to the
+/// per-point kernel. So which kernel evaluates a point depends only on the cells, never on timing.
+/// False when an inserting pass filled the table: the caller grows it and runs the pass again.
+bool evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf, std::size_t cell_count,
+                    ClaimPoints claim, const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
+    for (;;) {
+        const CellPass pass = run_cell_pass(rt, p, cell_buf, cell_count, claim, frame, b, r, R);
+        if (pass.table_full) return false;
+        if (!pass.overflow) return true;
+        if (!contract::inserts(claim)) {
+            evaluate_pending(rt, p, frame, b, r, R);
+            return true;
+        }
+        claim = claim == ClaimPoints::Inserted ? ClaimPoints::Level : ClaimPoints::EdgeMidpoints;
+    }
 }
 
 }  // namespace
@@ -470,27 +493,13 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<Coa
     rt.finish();
 }
 
-void evaluate_pending(OpenCLRuntime& rt, FinePoints& p, const LatticeFrame& frame, const BinnedParticles& b, float r,
-                      float R) {
-    // Stage 6 over the points not evaluated yet: each unique point exactly once.
-    DeviceBuffer count = rt.buffer(sizeof(cl_uint), "pending count");
-    DeviceBuffer pending = rt.buffer(p.inserted * sizeof(cl_uint), "pending points");
-    rt.queue().enqueueFillBuffer(count, cl_uint{0}, 0, sizeof(cl_uint));
-    use_key_width(rt, p);
-    kernels::collect_pending(rt, Items{p.hash.capacity}, p.hash.keys, p.values, cl_ulong(p.hash.capacity), count, pending);
-    const cl_uint todo = read_buffer<cl_uint>(rt, count, 1)[0];
-    kernels::scalar_field(rt, Items{todo}, pending, todo, p.hash.keys, p.values, frame.step, b.sorted, 1.0f / b.cell,
-                          b.bins.keys, cl_ulong(b.bins.capacity), b.range, r, R, key_shifts(p.layout));
-    rt.finish();
-}
-
-void evaluate_crossed_midpoints(OpenCLRuntime& rt, FinePoints& p, const std::vector<CoarseCell>& cells,
+void refine_edges(OpenCLRuntime& rt, FinePoints& p, const std::vector<CoarseCell>& cells,
                                 const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
     std::vector<CoarseCell> level2;
     for (const CoarseCell& c : cells)
         if (c.level == 2) level2.push_back(c);
     if (level2.empty()) return;
-    if (frame.coarse_steps > 8)  // claim_crossed_midpoints keeps a cell's corners and midpoints in local memory
+    if (frame.coarse_steps > 8)  // claim_refined_edges keeps a cell's corners and midpoints in local memory
         throw Error("internal: edge refinement takes coarse cells of at most 8 lattice steps");
     adopt_layout(p, frame, level2);
     ensure_fine_room(rt, p, p.inserted + 2 * level2.size());  // about 2 a level-2 cell (estimate_points)
@@ -503,7 +512,7 @@ void evaluate_crossed_midpoints(OpenCLRuntime& rt, FinePoints& p, const std::vec
     ensure_fine_room(rt, p, p.inserted);
     // A point created in a pass that ran out of room, by a cell whose candidates did not fit, is
     // not created again: the claiming pass takes it (it raises no overflow flag the second time).
-    if (grew) claim_leftovers(rt, p, cell_buf, level2.size(), ClaimPoints::RefinedEdges, frame, b, r, R);
+    if (grew) evaluate_cells(rt, p, cell_buf, level2.size(), ClaimPoints::EdgeMidpoints, frame, b, r, R);
     rt.finish();
 }
 

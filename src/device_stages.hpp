@@ -93,15 +93,12 @@ using contract::ClaimPoints;
 void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vector<CoarseCell>& cells,
                          const LatticeFrame& frame, const BinnedParticles& bins, float r, float R,
                          const std::vector<std::uint8_t>& cube_centres = {});
-/// Evaluates every point inserted but not evaluated yet.
-void evaluate_pending(OpenCLRuntime& rt, FinePoints& points, const LatticeFrame& frame, const BinnedParticles& bins,
-                      float r, float R);
-/// Stage 8b (host/edge_refinement.hpp) on the device: inserts and evaluates the midpoints of the
+/// Edge refinement (host/edge_refinement.hpp) on the device: inserts and evaluates the midpoints of the
 /// level-2 edges of the level-2 cells among `cells` whose ends the surface separates and that the
 /// table does not hold yet, in one pass over those cells (each finds its corners in the table,
 /// inserts its crossed midpoints and evaluates those it created). Every point of those cells'
-/// level must be evaluated already. The host reference is level2_crossing_midpoints.
-void evaluate_crossed_midpoints(OpenCLRuntime& rt, FinePoints& points, const std::vector<CoarseCell>& cells,
+/// level must be evaluated already. The host reference is edge_refinement_points.
+void refine_edges(OpenCLRuntime& rt, FinePoints& points, const std::vector<CoarseCell>& cells,
                                 const LatticeFrame& frame, const BinnedParticles& bins, float r, float R);
 /// Maps the table for the host and returns a view of it: no copy on CPU devices (the buffers are
 /// allocated host-accessible); an empty view when nothing was ever inserted. Host writes (transition continuity) land in the table. Call

@@ -91,7 +91,7 @@ AdaptiveCase random_adaptive_case(std::uint32_t seed, int coarse_steps = 4) {
     });
     apply_transition_continuity(c.cells, c.frame, c.field);
     if (rng() % 2) {  // level-2 edge refinement: any value at midpoints of crossed level-2 edges
-        for (std::uint64_t key : level2_crossing_midpoints(c.cells, c.frame, c.field))
+        for (std::uint64_t key : edge_refinement_points(c.cells, c.frame, c.field))
             c.field.insert(key, random_value(rng, int(rng() % 6), lattice::unpack(key)));
         apply_transition_continuity(c.cells, c.frame, c.field);
     }

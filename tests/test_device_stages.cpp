@@ -475,9 +475,9 @@ TEST_CASE("edge refinement on the device evaluates exactly the host reference's 
         refine_and_evaluate(rt, points, cells, frame, b, r, R);
         const FinePointMap before = read_fine_points(rt, points);
         const std::size_t inserted = points.inserted;
-        expected = level2_crossing_midpoints(cells, frame, before);
+        expected = edge_refinement_points(cells, frame, before);
         REQUIRE(expected.size() > 20);
-        evaluate_crossed_midpoints(rt, points, cells, frame, b, r, R);
+        refine_edges(rt, points, cells, frame, b, r, R);
         CHECK(points.inserted == inserted + expected.size());
         after.push_back(read_fine_points(rt, points));
         for (std::size_t s = 0; s < before.capacity(); ++s)  // the points there before keep their bits
@@ -527,9 +527,9 @@ TEST_CASE("edge refinement on the device grows the table when the midpoints over
         unmap_fine_points(rt, points);
     }
     const FinePointMap host = read_fine_points(rt, points);
-    const std::vector<std::uint64_t> expected = level2_crossing_midpoints(cells, frame, host);
+    const std::vector<std::uint64_t> expected = edge_refinement_points(cells, frame, host);
     REQUIRE(expected.size() == 40 * 54);  // 54 edges a cell, none shared
-    evaluate_crossed_midpoints(rt, points, cells, frame, b, r, R);
+    refine_edges(rt, points, cells, frame, b, r, R);
     CHECK(points.hash.capacity > capacity);  // 2160 midpoints where the pass reserved 80
     CHECK(points.inserted == before + expected.size());
     const FinePointMap map = read_fine_points(rt, points);
