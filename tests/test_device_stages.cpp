@@ -197,11 +197,11 @@ TEST_CASE("colour field, surface and splash particles match the C++ reference", 
     for (std::size_t i = 0; i < x.size(); ++i) {
         const glm::vec3 g = grad[i];
         REQUIRE(glm::length(g - ref.gradient[i]) * R <= 1e-4f + 1e-4f * glm::length(ref.gradient[i]) * R);
-        REQUIRE(bool(flags[i] & 2) == bool(ref.splash[i]));
-        REQUIRE(bool(flags[i] & 4) == (ref.neighbours[i] < constants::kThinNeighbours));
-        device_surface += flags[i] & 1;
+        REQUIRE(bool(flags[i] & contract::kFlagSplash) == bool(ref.splash[i]));
+        REQUIRE(bool(flags[i] & contract::kFlagThin) == (ref.neighbours[i] < constants::kThinNeighbours));
+        device_surface += (flags[i] & contract::kFlagSurface) != 0;
         // Only a gradient within float noise of the threshold may classify differently.
-        if (bool(flags[i] & 1) != bool(ref.surface[i]))
+        if (bool(flags[i] & contract::kFlagSurface) != bool(ref.surface[i]))
             CHECK(std::fabs(glm::length(ref.gradient[i]) * R - constants::kSurfaceGradient) < 1e-4f);
     }
     CHECK(c.surface == device_surface);
