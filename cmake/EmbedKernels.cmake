@@ -1,13 +1,15 @@
-# trilevel_embed_kernels(OUT file.cl...) generates OUT, a C++ file that defines
-# trilevel::embedded_kernel_source(name) returning the text of kernels/<name>.cl.
-function(trilevel_embed_kernels out)
+# trilevel_embed_kernels(OUT FUNCTION DIR file...) generates OUT, a C++ file that defines
+# std::string trilevel::FUNCTION(): the files DIR/file..., joined in the given order (the ordered
+# lists of kernels/kernels.cmake).
+set(TRILEVEL_EMBED_SCRIPT ${CMAKE_CURRENT_LIST_DIR}/EmbedKernelsScript.cmake)
+function(trilevel_embed_kernels out function dir)
   set(abs_sources)
   foreach(src ${ARGN})
-    list(APPEND abs_sources ${CMAKE_SOURCE_DIR}/${src})
+    list(APPEND abs_sources ${dir}/${src})
   endforeach()
   string(REPLACE ";" "|" joined "${abs_sources}")
   add_custom_command(OUTPUT ${out}
-    COMMAND ${CMAKE_COMMAND} -DOUT=${out} "-DSOURCES=${joined}" -P ${CMAKE_SOURCE_DIR}/cmake/EmbedKernelsScript.cmake
-    DEPENDS ${abs_sources} ${CMAKE_SOURCE_DIR}/cmake/EmbedKernelsScript.cmake
+    COMMAND ${CMAKE_COMMAND} -DOUT=${out} -DFUNCTION=${function} "-DSOURCES=${joined}" -P ${TRILEVEL_EMBED_SCRIPT}
+    DEPENDS ${abs_sources} ${TRILEVEL_EMBED_SCRIPT}
     COMMENT "Embedding OpenCL kernels" VERBATIM)
 endfunction()

@@ -16,13 +16,13 @@ install(TARGETS trilevel_cli RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 # A shared libtrilevel is found next to the installed CLI wherever the prefix is moved.
 set_target_properties(trilevel_cli PROPERTIES INSTALL_RPATH $ORIGIN/../${CMAKE_INSTALL_LIBDIR})
 # Only the public interface: src/ and host/ headers are private and never installed.
-install(DIRECTORY ${CMAKE_SOURCE_DIR}/include/trilevel DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/include/trilevel DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}
   FILES_MATCHING PATTERN "*.hpp")
 
 install(EXPORT trilevelTargets NAMESPACE trilevel:: DESTINATION ${TRILEVEL_CMAKE_DIR})
-configure_package_config_file(${CMAKE_SOURCE_DIR}/cmake/trilevelConfig.cmake.in
-  ${CMAKE_BINARY_DIR}/generated/trilevelConfig.cmake INSTALL_DESTINATION ${TRILEVEL_CMAKE_DIR})
-write_basic_package_version_file(${CMAKE_BINARY_DIR}/generated/trilevelConfigVersion.cmake
+configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/trilevelConfig.cmake.in
+  ${PROJECT_BINARY_DIR}/generated/trilevelConfig.cmake INSTALL_DESTINATION ${TRILEVEL_CMAKE_DIR})
+write_basic_package_version_file(${PROJECT_BINARY_DIR}/generated/trilevelConfigVersion.cmake
   COMPATIBILITY SameMajorVersion)
-install(FILES ${CMAKE_BINARY_DIR}/generated/trilevelConfig.cmake
-  ${CMAKE_BINARY_DIR}/generated/trilevelConfigVersion.cmake DESTINATION ${TRILEVEL_CMAKE_DIR})
+install(FILES ${PROJECT_BINARY_DIR}/generated/trilevelConfig.cmake
+  ${PROJECT_BINARY_DIR}/generated/trilevelConfigVersion.cmake DESTINATION ${TRILEVEL_CMAKE_DIR})

@@ -156,7 +156,13 @@ double orient2d(glm::dvec2 a, glm::dvec2 b, glm::dvec2 c) {
 }
 
 // Ear clipping in the face plane; topology first: an ear must not repeat an edge the adjacent
-// cubes use; without a geometric ear any such vertex is cut, as a last resort the first one.
+// cubes use. Among the allowed vertices: a strict ear (convex, no other vertex in or on it), then an
+// ear that only touches other vertices on its boundary (repeated or collinear crossings, which
+// exact zeros of the field make; not at its tip), then a flat one (a zero-area triangle folds
+// nothing); the last triangle must not turn the other way either. Where those
+// choices run into a polygon with no allowed ear left, the next choice is tried instead (at most 10
+// vertices: a small search); only when no sequence of ears exists is a reflex vertex cut, as a
+// last resort the first one, which folds the patch.
 void FaceStitcher::triangulate(SmallVec<std::int32_t, 10>& poly, std::vector<std::uint32_t>& out) {
     const int pb = (axis_ + 1) % 3, pc = (axis_ + 2) % 3;
     auto pt = [&](std::int32_t id) { return glm::dvec2(b_.positions[id][pb], b_.positions[id][pc]); };
@@ -166,29 +172,67 @@ void FaceStitcher::triangulate(SmallVec<std::int32_t, 10>& poly, std::vector<std
         area += a.x * c.y - a.y * c.x;
     }
     const double sign = area >= 0.0 ? 1.0 : -1.0;
-    while (poly.size > 3) {
-        int n = poly.size, pick = -1;
-        auto allowed = [&](int i) { return !is_used(poly.item[(i + n - 1) % n], poly.item[(i + 1) % n]); };
-        auto is_ear = [&](int i) {
-            const glm::dvec2 a = pt(poly.item[(i + n - 1) % n]), b = pt(poly.item[i]), c = pt(poly.item[(i + 1) % n]);
-            if (sign * orient2d(a, b, c) <= 0.0) return false;
-            for (int j = 0; j < n; ++j) {
-                if (j == i || j == (i + 1) % n || j == (i + n - 1) % n) continue;
-                const glm::dvec2 p = pt(poly.item[j]);
-                if (sign * orient2d(a, b, p) >= 0.0 && sign * orient2d(b, c, p) >= 0.0 && sign * orient2d(c, a, p) >= 0.0)
-                    return false;
-            }
+    enum Ear { kStrict, kTouching, kFlat, kNone };
+    auto ear = [&](const SmallVec<std::int32_t, 10>& q, int i) {
+        const int n = q.size;
+        const glm::dvec2 a = pt(q.item[(i + n - 1) % n]), b = pt(q.item[i]), c = pt(q.item[(i + 1) % n]);
+        const double turn = sign * orient2d(a, b, c);
+        if (turn < 0.0) return kNone;
+        if (turn == 0.0) return kFlat;
+        Ear kind = kStrict;
+        for (int j = 0; j < n; ++j) {
+            if (j == i || j == (i + 1) % n || j == (i + n - 1) % n) continue;
+            const glm::dvec2 p = pt(q.item[j]);
+            if (p == b) return kNone;  // a repeated tip: what is left would turn the other way there
+            const double s0 = sign * orient2d(a, b, p), s1 = sign * orient2d(b, c, p), s2 = sign * orient2d(c, a, p);
+            if (s0 > 0.0 && s1 > 0.0 && s2 > 0.0) return kNone;  // inside
+            if (s0 >= 0.0 && s1 >= 0.0 && s2 >= 0.0) kind = kTouching;
+        }
+        return kind;
+    };
+    auto allowed = [&](const SmallVec<std::int32_t, 10>& q, int i) {
+        return !is_used(q.item[(i + q.size - 1) % q.size], q.item[(i + 1) % q.size]);
+    };
+    auto clip = [&](SmallVec<std::int32_t, 10>& q, int pick, std::vector<std::uint32_t>& to) {
+        const int n = q.size;
+        to.insert(to.end(), {std::uint32_t(q.item[(pick + n - 1) % n]), std::uint32_t(q.item[pick]),
+                             std::uint32_t(q.item[(pick + 1) % n])});
+        for (int j = pick; j + 1 < n; ++j) q.item[j] = q.item[j + 1];
+        --q.size;
+    };
+    // Depth-first over the ears in order of preference; the first path is the greedy one.
+    int budget = 4096;  // ear tests; polygons that need more keep the fallback below
+    std::vector<std::uint32_t> found;
+    auto search = [&](auto&& self, SmallVec<std::int32_t, 10> q) -> bool {
+        if (q.size == 3) {
+            if (sign * orient2d(pt(q.item[0]), pt(q.item[1]), pt(q.item[2])) < 0.0) return false;
+            found.insert(found.end(), {std::uint32_t(q.item[0]), std::uint32_t(q.item[1]), std::uint32_t(q.item[2])});
             return true;
-        };
-        for (int i = 0; i < n && pick < 0; ++i)
-            if (is_ear(i) && allowed(i)) pick = i;
-        for (int i = 0; i < n && pick < 0; ++i)
-            if (allowed(i)) pick = i;
-        if (pick < 0) pick = 0;
-        out.insert(out.end(), {std::uint32_t(poly.item[(pick + n - 1) % n]), std::uint32_t(poly.item[pick]),
-                               std::uint32_t(poly.item[(pick + 1) % n])});
-        for (int j = pick; j + 1 < n; ++j) poly.item[j] = poly.item[j + 1];
-        --poly.size;
+        }
+        for (Ear want : {kStrict, kTouching, kFlat})
+            for (int i = 0; i < q.size; ++i) {
+                if (--budget < 0) return false;
+                if (ear(q, i) != want || !allowed(q, i)) continue;
+                const std::size_t mark = found.size();
+                SmallVec<std::int32_t, 10> rest = q;
+                clip(rest, i, found);
+                if (self(self, rest)) return true;
+                found.resize(mark);
+            }
+        return false;
+    };
+    if (search(search, poly)) {
+        out.insert(out.end(), found.begin(), found.end());
+        return;
+    }
+    while (poly.size > 3) {
+        int pick = -1;
+        for (Ear want : {kStrict, kTouching, kFlat})
+            for (int i = 0; i < poly.size && pick < 0; ++i)
+                if (ear(poly, i) == want && allowed(poly, i)) pick = i;
+        for (int i = 0; i < poly.size && pick < 0; ++i)
+            if (allowed(poly, i)) pick = i;
+        clip(poly, pick < 0 ? 0 : pick, out);
     }
     out.insert(out.end(), {std::uint32_t(poly.item[0]), std::uint32_t(poly.item[1]), std::uint32_t(poly.item[2])});
 }

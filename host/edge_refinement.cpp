@@ -7,7 +7,7 @@
 
 namespace trilevel {
 
-std::vector<std::uint64_t> level2_crossing_midpoints(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
+std::vector<std::uint64_t> edge_refinement_points(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
                                                      const FinePointMap& field) {
     const int cs = frame.coarse_steps;
     std::vector<std::uint64_t> out;

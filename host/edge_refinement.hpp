@@ -6,7 +6,7 @@
 // continuity, so its true field value can be used: the vertex then lands where the uniform
 // cell-r mesh puts it, while the level-2 triangle count stays the same. Costs one scalar-field
 // evaluation per level-2 vertex. The pipeline finds, inserts and evaluates these midpoints on the
-// device in one pass (evaluate_crossed_midpoints, src/device_stages.hpp); this file is its
+// device in one pass (refine_edges, src/device_stages.hpp); this file is its
 // definition in plain C++, for the tests.
 #pragma once
 
@@ -21,7 +21,7 @@ namespace trilevel {
 /// Keys (sorted, unique) of the midpoints of the level-2 edges of the level-2 cells in `cells`
 /// whose end values in `field` differ in sign (mc::inside) and that `field` does not hold yet.
 /// Edges with an end missing from `field` are skipped.
-std::vector<std::uint64_t> level2_crossing_midpoints(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
+std::vector<std::uint64_t> edge_refinement_points(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
                                                      const FinePointMap& field);
 
 // The level-2 midpoint rule (the surface mesher and crack stitching apply it inline, on batched

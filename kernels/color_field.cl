@@ -7,10 +7,9 @@
 // A neighbour closer than SAME_SPOT * R is the same spot, not a neighbour, for the splash and thin
 // counts: particles stacked on one point have no colour-field gradient at all, so without this a
 // pile of them would be neither surface nor splash and vanish from the mesh.
+// Uses: contract.h (FLAG_*), hash_table.cl, particle_binning.cl (gather_candidates, FOR_EACH_NEIGHBOUR_BIN).
 
-#define FLAG_SURFACE 1
-#define FLAG_SPLASH 2
-#define FLAG_THIN 4   /* fewer than THIN_NEIGHBOURS neighbours: a small cluster, filament or sheet */
+// Writes FLAG_SURFACE, FLAG_SPLASH and FLAG_THIN (contract.h) per particle.
 
 // Colour-field gradient and neighbour count of particle i over the 27 bins around it in global
 // memory: for bins whose candidates do not fit in local memory.

@@ -2,7 +2,7 @@
 // and the level of each cell. Cell sums use 64-bit fixed-point atomics so the mean does not depend
 // on the order in which work-items add (DESIGN §6).
 
-#define KAPPA_FIXED 1048576.0f  /* 2^20 */
+// Uses: contract.h (KAPPA_FIXED, FLAG_SURFACE), hash_table.cl, particle_binning.cl, surface_cells.cl (coarse_of).
 
 inline float3 outward_normal(float3 gradient) {
     return length(gradient) > 0.0f ? -normalize(gradient) : (float3)(0.0f);
@@ -101,12 +101,15 @@ inline void add_to_cell(float3 x, float kap, float inv_coarse, __global const ul
 
 // What particle_curvature does with particle i's kappa: into its cell's sums, so that no array of n
 // floats is needed, and into kappa[i] only when the caller asked for them (tests, diagnostics).
+// Clamped at 0: 1 - n_i . n_j rounds below zero for parallel normals, and a negative kappa would
+// wrap the unsigned fixed-point sum and, as bits, rank above every positive kappa in the maximum.
 #define CURVATURE_RESULT(i, kap)                                                                          \
     {                                                                                                     \
+        const float kap_ = fmax((kap), 0.0f);                                                             \
         if (flags[i] & FLAG_SURFACE)                                                                      \
-            add_to_cell(vload3(i, sorted), (kap), inv_coarse, cell_keys, cell_capacity, kappa_sum, kappa_count, \
+            add_to_cell(vload3(i, sorted), kap_, inv_coarse, cell_keys, cell_capacity, kappa_sum, kappa_count, \
                         kappa_max);                                                                       \
-        if (keep_kappa) kappa[i] = (kap);                                                                 \
+        if (keep_kappa) kappa[i] = kap_;                                                                  \
     }
 
 // Paper eq. 1-2: kappa_i = sum_j (1 - n_i . n_j) W(x_ij, h), W = max(0, 1 - |x_ij|/h), h = R, over

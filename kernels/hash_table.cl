@@ -5,6 +5,7 @@
 // then grows the table and reruns the stage, so nothing is silently dropped. No work-item ever
 // waits for another (PoCL runs a work-group as a loop).
 #pragma OPENCL EXTENSION cl_khr_int64_base_atomics : enable
+// Uses: nothing before it but contract.h (FINE_KEY_BITS comes as a build option).
 
 #define EMPTY_KEY 0xffffffffffffffffUL
 #define AXIS_BITS 20

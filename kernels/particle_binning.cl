@@ -4,6 +4,7 @@
 // Occupied cells are keys in the lock-free hash; their slots serve as counting-sort buckets:
 // count -> (host) exclusive scan -> scatter -> sort each bucket by particle index, so every
 // neighbour sum later runs in the same order whatever the thread count (DESIGN §6).
+// Uses: contract.h (MAX_BINS), hash_table.cl (keys, hash_find); MAX_CANDIDATES and SERIAL_GATHER are build options.
 
 inline int3 cell_of(float3 p, float inv_cell) {
     return convert_int3_rtn(p * inv_cell);
@@ -89,7 +90,6 @@ __kernel void bin_gather(__global const uint* order, uint n, __global const floa
 // item walking all bins for a share of about one particle each.
 // MAX_CANDIDATES comes from the host (OpenCLRuntime::max_candidates): as many as two float4 lists
 // of them fit the device's local memory, at most 2048.
-#define MAX_BINS 64
 inline uint gather_candidates(int3 blo, int3 bhi, __global const float* sorted, __global const ulong* bin_keys,
                               ulong bin_capacity, __global const uint2* range, __local float4* cand,
                               __local uint* bin_first, __local uint* bin_slot, __local uint* count) {

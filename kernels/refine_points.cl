@@ -2,12 +2,12 @@
 // lattice points into the lock-free hash: (n/2+1)^3 for level 2 (27 when n = 4), (n+1)^3 for
 // level 3 (125). A point shared by several cells is stored once; its value slot starts as NaN,
 // which marks it as not yet evaluated.
+// Uses: contract.h (CELL_*), hash_table.cl (fine_insert).
 
 // A cell's w: its level, plus CELL_CUBE_CENTRES where the level-2 check (host/level2_check.hpp)
 // needs the centres of its level-2 cubes, which the same passes then insert and evaluate.
-#define CELL_CUBE_CENTRES 4
-
-inline int cell_level(int w) { return w & 3; }
+// (CELL_CUBE_CENTRES and CELL_LEVEL_MASK: contract.h.)
+inline int cell_level(int w) { return w & CELL_LEVEL_MASK; }
 
 // Whether the cell whose int4 has this w holds the lattice point with `odd` odd coordinates (of
 // its local offset): level 3 every point, level 2 the even ones and, when asked, the cube centres.

@@ -5,6 +5,8 @@
 // Sums use y_j = x_j - x (translation invariant, better float precision):
 //   J = (sum y_j (x) grad k_j - ybar (x) sum grad k_j) / K,  grad k_j = -6 (1 - s_j^2)^2 (x - x_j) / R^2.
 // Build options: EV_LOW, EV_HIGH.
+// Uses: contract.h (CLAIM_*, MAX_CELL_POINTS), hash_table.cl, particle_binning.cl (gather_candidates),
+// refine_points.cl (cell_level, cell_has_point).
 
 // Largest real part of the eigenvalues of a 3x3 matrix (rows a, b, c) from its characteristic
 // polynomial l^3 - t l^2 + m l - d (t: trace, m: sum of principal 2x2 minors, d: determinant),
@@ -126,7 +128,7 @@ __kernel void scalar_field(__global const uint* pending, uint count, __global co
 
 // Candidate particles of one coarse cell gathered into local memory (paper Fig. 3: the particles
 // that influence the cell's points lie within R of the cell box). A point shared by several cells
-// is evaluated once: in the passes that insert (CLAIM_INSERTED, the main pass, and CLAIM_CROSSED,
+// is evaluated once: in the passes that insert (CLAIM_INSERTED, the main pass, and CLAIM_REFINED_EDGES,
 // edge refinement) by the work-group whose insert created it, which spares a separate insert
 // pass and a second table lookup per point; in the other passes
 // by the work-group that claims it first (its NaN "pending" value becomes CLAIMED). Each
@@ -139,7 +141,6 @@ __kernel void scalar_field(__global const uint* pending, uint count, __global co
 #define PENDING_BITS 0x7fc00000u
 #define CLAIMED_BITS 0x7fc00001u
 #define LANES 8
-#define MAX_CELL_POINTS 729  /* (8 + 1)^3: uniform cell r/2 */
 #define NOT_CLAIMED 0xffffffffu
 
 // The candidates within R of the box around the eight points X, Y, Z, in candidate order, as
@@ -163,20 +164,16 @@ inline uint near_candidates(float8 X, float8 Y, float8 Z, __local const float4* 
     return n;
 }
 
-// Which pending points of its cell a work-group claims (ClaimPoints in src/device_stages.hpp).
-#define CLAIM_LEVEL 0           /* the points of the cell's level */
-#define CLAIM_EDGE_MIDPOINTS 1  /* one odd coordinate: midpoints of level-2 edges (stage 8b) */
-#define CLAIM_INSERTED 2        /* inserts the points of the cell's level (stage 5) and takes those it created */
-#define CLAIM_CROSSED 3         /* inserts the midpoints of the level-2 cell's crossed edges (stage 8b), takes those it created */
+// Which pending points of its cell a work-group claims: CLAIM_* in contract.h.
 
-// Stage 8b (host/edge_refinement.hpp) for one level-2 cell: the midpoints of its level-2 edges
+// Edge refinement (host/edge_refinement.hpp) for one level-2 cell: the midpoints of its level-2 edges
 // whose ends the surface separates (phi < 0 at one end only), inserted; the slots of those this
 // work-group created go into claimed[0 .. *claimed_count), in no particular order (a point's
 // value does not depend on its lane or partners). `corner` holds the (cs/2 + 1)^3 level-2 values
 // meanwhile. A midpoint already in the table (a level-3 cell's point) is not created, so it keeps
 // its value; each crossed edge is created once, by whichever of its up to four cells gets there
 // first, and the value does not depend on the cell that evaluates it.
-inline void claim_crossed_midpoints(int3 base, int cs, volatile __global fine_key_t* keys, ulong capacity,
+inline void claim_refined_edges(int3 base, int cs, volatile __global fine_key_t* keys, ulong capacity,
                                     volatile __global uint* value_bits, uint2 shift, __local float* corner,
                                     __local uint* claimed, volatile __local uint* claimed_count,
                                     volatile __global int* table_stats) {
@@ -204,48 +201,25 @@ inline void claim_crossed_midpoints(int3 base, int cs, volatile __global fine_ke
     }
 }
 
-__kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, int claim,
-                                 volatile __global fine_key_t* keys, ulong capacity,
-                                 volatile __global uint* value_bits, float step, __global const float* sorted,
-                                 float inv_cell, __global const ulong* bin_keys, ulong bin_capacity,
-                                 __global const uint2* range, float r, float R, volatile __global int* overflow,
-                                 __local float4* cand, __local uint* bin_first, __local uint* bin_slot,
-                                 __local uint* count, __local uint* claimed, __local uint* claimed_count,
-                                 int cells_are_bins, volatile __global int* table_stats, uint2 shift) {
-    const int4 c = cells[get_group_id(0)];
+// Claim phase of scalar_field_cells: the points of cell c this work-group evaluates, by `claim`
+// (CLAIM_* in contract.h), as table slots in claimed[0 .. *claimed_count) in lattice order. Returns
+// false when the group evaluates nothing: its candidates do not fit (it raises `overflow`, and
+// what it created stays pending for the claiming pass the host runs next). All work-items call it.
+inline bool claim_cell_points(int4 c, int coarse_steps, int claim, bool fits, volatile __global fine_key_t* keys,
+                              ulong capacity, volatile __global uint* value_bits, volatile __global int* overflow,
+                              __local uint* claimed, __local uint* claimed_count, volatile __global int* table_stats,
+                              uint2 shift) {
     const uint lid = get_local_id(0), lsize = get_local_size(0);
-    if (claim == CLAIM_CROSSED) {  // first the midpoints: a cell that creates none gathers nothing
-        if (cell_level(c.w) != 2) return;
-        if (lid == 0) *claimed_count = 0;
-        barrier(CLK_LOCAL_MEM_FENCE);
-        // The corners in the upper half of `claimed`, the created midpoints (at most 3 (cs/2) (cs/2 + 1)^2,
-        // 300 for cs <= 8: the host checks) in its lower half.
-        claim_crossed_midpoints(c.xyz * coarse_steps, coarse_steps, keys, capacity, value_bits, shift,
-                                (__local float*)(claimed + MAX_CELL_POINTS / 2), claimed, claimed_count, table_stats);
-        barrier(CLK_LOCAL_MEM_FENCE);
-        if (*claimed_count == 0) return;
-    }
-    // With the default kernel radius the coarse cells are the particle bins (edge R = 4r, one
-    // origin): the particles inside the cut support of the cell's points are in the 27 bins around
-    // it (SUPPORT_CUT). The float box below lands on bin faces there and took 4 or 5 bins per axis,
-    // 2.5x the candidates; for other radii its extra bins only add zeros.
-    int3 blo = c.xyz - 1, bhi = c.xyz + 1;
-    if (!cells_are_bins) {
-        blo = convert_int3_rtn((convert_float3(c.xyz * coarse_steps) * step - R) * inv_cell);
-        bhi = convert_int3_rtn((convert_float3(c.xyz * coarse_steps + coarse_steps) * step + R) * inv_cell);
-    }
-    const uint n_cand = gather_candidates(blo, bhi, sorted, bin_keys, bin_capacity, range, cand, bin_first, bin_slot, count);
     const int side = coarse_steps + 1;
     const int points = side * side * side;
-    const bool fits = n_cand <= MAX_CANDIDATES && points <= MAX_CELL_POINTS;
-    const bool creates = claim == CLAIM_INSERTED || claim == CLAIM_CROSSED;  // the points this group created
+    const bool creates = claim == CLAIM_INSERTED || claim == CLAIM_REFINED_EDGES;  // the points this group created
     if (!fits && !creates) {
         if (lid == 0) atomic_or(overflow, 1);
-        return;
+        return false;
     }
-    if (lid == 0 && claim != CLAIM_CROSSED) *claimed_count = 0;  // CLAIM_INSERTED: first the count of points created
+    if (lid == 0 && claim != CLAIM_REFINED_EDGES) *claimed_count = 0;  // CLAIM_INSERTED: first the count of points created
     barrier(CLK_LOCAL_MEM_FENCE);
-    for (int l = (int)lid; l < points && claim != CLAIM_CROSSED; l += (int)lsize) {  // claim the cell's pending points
+    for (int l = (int)lid; l < points && claim != CLAIM_REFINED_EDGES; l += (int)lsize) {  // claim the cell's pending points
         if (fits) claimed[l] = NOT_CLAIMED;
         int3 o = (int3)(l % side, (l / side) % side, l / (side * side));
         const int odd = (o.x & 1) + (o.y & 1) + (o.z & 1);
@@ -270,16 +244,24 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
     if (lid == 0 && creates) atomic_add(&table_stats[1], (int)*claimed_count);  // once per group
     if (!fits) {  // its created points stay pending for the claiming pass the host runs next
         if (lid == 0) atomic_or(overflow, 1);
-        return;
+        return false;
     }
-    if (lid == 0 && claim != CLAIM_CROSSED) {  // in lattice order, so that eight consecutive points lie close together
+    if (lid == 0 && claim != CLAIM_REFINED_EDGES) {  // in lattice order, so that eight consecutive points lie close together
         uint n = 0;
         for (int l = 0; l < points; ++l)
             if (claimed[l] != NOT_CLAIMED) claimed[n++] = claimed[l];
         *claimed_count = n;
     }
     barrier(CLK_LOCAL_MEM_FENCE);
-    const uint n_claimed = *claimed_count;
+    return true;
+}
+
+// The field at the n_claimed points of `claimed` (table slots) from the n_cand candidates in local
+// memory: each work-item takes LANES points at once, one per vector lane.
+inline void evaluate_claimed(__local const uint* claimed, uint n_claimed, __local const float4* cand, uint n_cand,
+                             volatile __global fine_key_t* keys, volatile __global uint* value_bits, float step,
+                             float r, float R, uint2 shift) {
+    const uint lid = get_local_id(0), lsize = get_local_size(0);
     const float R2 = R * R, inv_R2 = 1.0f / R2;
     ushort near[MAX_CANDIDATES];
     for (uint first = lid * LANES; first < n_claimed; first += lsize * LANES) {
@@ -322,4 +304,43 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
             value_bits[claimed[first + l]] = as_uint(phi);
         }
     }
+}
+
+__kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, int claim,
+                                 volatile __global fine_key_t* keys, ulong capacity,
+                                 volatile __global uint* value_bits, float step, __global const float* sorted,
+                                 float inv_cell, __global const ulong* bin_keys, ulong bin_capacity,
+                                 __global const uint2* range, float r, float R, volatile __global int* overflow,
+                                 __local float4* cand, __local uint* bin_first, __local uint* bin_slot,
+                                 __local uint* count, __local uint* claimed, __local uint* claimed_count,
+                                 int cells_are_bins, volatile __global int* table_stats, uint2 shift) {
+    const int4 c = cells[get_group_id(0)];
+    const uint lid = get_local_id(0);
+    if (claim == CLAIM_REFINED_EDGES) {  // first the midpoints: a cell that creates none gathers nothing
+        if (cell_level(c.w) != 2) return;
+        if (lid == 0) *claimed_count = 0;
+        barrier(CLK_LOCAL_MEM_FENCE);
+        // The corners in the upper half of `claimed`, the created midpoints (at most 3 (cs/2) (cs/2 + 1)^2,
+        // 300 for cs <= 8: the host checks) in its lower half.
+        claim_refined_edges(c.xyz * coarse_steps, coarse_steps, keys, capacity, value_bits, shift,
+                            (__local float*)(claimed + MAX_CELL_POINTS / 2), claimed, claimed_count, table_stats);
+        barrier(CLK_LOCAL_MEM_FENCE);
+        if (*claimed_count == 0) return;
+    }
+    // With the default kernel radius the coarse cells are the particle bins (edge R = 4r, one
+    // origin): the particles inside the cut support of the cell's points are in the 27 bins around
+    // it (SUPPORT_CUT). The float box below lands on bin faces there and took 4 or 5 bins per axis,
+    // 2.5x the candidates; for other radii its extra bins only add zeros.
+    int3 blo = c.xyz - 1, bhi = c.xyz + 1;
+    if (!cells_are_bins) {
+        blo = convert_int3_rtn((convert_float3(c.xyz * coarse_steps) * step - R) * inv_cell);
+        bhi = convert_int3_rtn((convert_float3(c.xyz * coarse_steps + coarse_steps) * step + R) * inv_cell);
+    }
+    const uint n_cand = gather_candidates(blo, bhi, sorted, bin_keys, bin_capacity, range, cand, bin_first, bin_slot, count);
+    const int side = coarse_steps + 1;
+    const bool fits = n_cand <= MAX_CANDIDATES && side * side * side <= MAX_CELL_POINTS;
+    if (!claim_cell_points(c, coarse_steps, claim, fits, keys, capacity, value_bits, overflow, claimed, claimed_count,
+                           table_stats, shift))
+        return;
+    evaluate_claimed(claimed, *claimed_count, cand, n_cand, keys, value_bits, step, r, R, shift);
 }

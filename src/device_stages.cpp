@@ -13,20 +13,15 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
+#include "kernel_contract.hpp"
+#include "kernel_launch.hpp"
 #include "stage_constants.hpp"
 
 namespace trilevel {
 namespace {
 
-template <class... Args>
-void set_args_from(cl::Kernel& k, cl_uint first, const Args&... args) {
-    cl_uint i = first;
-    (k.setArg(i++, args), ...);
-}
-template <class... Args>
-void set_args(cl::Kernel& k, const Args&... args) {
-    set_args_from(k, 0, args...);
-}
+using kernels::Groups;
+using kernels::Items;
 
 /// A device buffer (role `what`) holding a copy of `data`: the counterpart of read_buffer.
 template <class T>
@@ -95,14 +90,8 @@ DeviceHash insert_growing(OpenCLRuntime& rt, std::size_t capacity, const char* w
 constexpr std::size_t kBinGroup = 8, kCellGroup = 16;  // a work-item takes 8 particles or points at once
 constexpr std::size_t kBinsPerGroup = 16;  // bins one work-group takes in turn
 
-/// The four __local arguments of gather_candidates (particle_binning.cl), from argument `first`.
-void set_candidate_args(OpenCLRuntime& rt, cl::Kernel& k, cl_uint first) {
-    constexpr std::size_t kMaxBins = 64;  // as in particle_binning.cl
-    k.setArg(first, cl::Local(rt.max_candidates() * sizeof(cl_float4)));
-    k.setArg(first + 1, cl::Local(kMaxBins * sizeof(cl_uint)));
-    k.setArg(first + 2, cl::Local(kMaxBins * sizeof(cl_uint)));
-    k.setArg(first + 3, cl::Local(sizeof(cl_uint)));
-}
+/// The __local candidate lists of a gather (particle_binning.cl) on this device.
+kernels::CandidateLists candidate_lists(const OpenCLRuntime& rt) { return {rt.max_candidates()}; }
 
 /// A buffer mapped for the host, unmapped when this goes: on CPU devices no copy is made.
 template <class T>
@@ -175,14 +164,12 @@ BinnedParticles bin_positions(OpenCLRuntime& rt, DeviceBuffer pos, std::size_t p
     DeviceBuffer slot_of = rt.buffer(n * sizeof(cl_int), "particle bins");
 
     b.bins = insert_growing(rt, std::size_t(float(b.count) * constants::kBinSlotsPerParticle), "particle bin hash", false, [&](DeviceHash& h) {
-        set_args(rt.kernel("bin_insert"), pos, n, inv_cell, h.keys, cl_ulong(h.capacity), slot_of, h.stats);
-        rt.run("bin_insert", n);
+        kernels::bin_insert(rt, Items{n}, pos, n, inv_cell, h.keys, cl_ulong(h.capacity), slot_of, h.stats);
     });
     const std::size_t cap = b.bins.capacity;
     DeviceBuffer count = rt.buffer(cap * sizeof(cl_uint), "bin counts");
     rt.queue().enqueueFillBuffer(count, cl_uint{0}, 0, cap * sizeof(cl_uint));
-    set_args(rt.kernel("bin_count"), slot_of, n, count);
-    rt.run("bin_count", n);
+    kernels::bin_count(rt, Items{n}, slot_of, n, count);
 
     b.range = rt.buffer(cap * sizeof(cl_uint2), "bin ranges");
     {  // counts and keys read, ranges written through maps: no host copies of the tables
@@ -195,15 +182,12 @@ BinnedParticles bin_positions(OpenCLRuntime& rt, DeviceBuffer pos, std::size_t p
     }
     rt.queue().enqueueFillBuffer(count, cl_uint{0}, 0, cap * sizeof(cl_uint));
     b.order = rt.buffer(n * sizeof(cl_uint), "particle order");
-    set_args(rt.kernel("bin_scatter"), slot_of, n, b.range, count, b.order);
-    rt.run("bin_scatter", n);
+    kernels::bin_scatter(rt, Items{n}, slot_of, n, b.range, count, b.order);
     slot_of = DeviceBuffer{};  // not needed once scattered: the gather below is the stage's peak
     count = DeviceBuffer{};
-    set_args(rt.kernel("bin_sort_buckets"), b.range, cl_ulong(cap), b.order);
-    rt.run("bin_sort_buckets", cap);
+    kernels::bin_sort_buckets(rt, Items{cap}, b.range, cl_ulong(cap), b.order);
     b.sorted = rt.buffer(n * 3 * sizeof(cl_float), "sorted positions");
-    set_args(rt.kernel("bin_gather"), b.order, n, pos, b.sorted);
-    rt.run("bin_gather", n);
+    kernels::bin_gather(rt, Items{n}, b.order, n, pos, b.sorted);
     rt.finish();
     return b;
 }
@@ -214,13 +198,12 @@ ParticleClasses classify_particles(OpenCLRuntime& rt, const BinnedParticles& b, 
     c.gradient = rt.buffer(n * 3 * sizeof(cl_float), "colour-field gradients");
     c.flags = rt.buffer(n * sizeof(cl_uchar), "particle flags");
     const float volume = std::pow(2.0f * r, 3.0f);
-    set_args(rt.kernel("color_field"), b.sorted, b.occupied, cl_uint(b.occupied_count), cl_uint(kBinsPerGroup),
-             1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.capacity), b.range, R, volume, c.gradient, c.flags);
-    set_candidate_args(rt, rt.kernel("color_field"), 12);
-    rt.run_groups("color_field", (b.occupied_count + kBinsPerGroup - 1) / kBinsPerGroup, kBinGroup);
+    kernels::color_field(rt, Groups{(b.occupied_count + kBinsPerGroup - 1) / kBinsPerGroup, kBinGroup}, b.sorted,
+                         b.occupied, cl_uint(b.occupied_count), cl_uint(kBinsPerGroup), 1.0f / b.cell, b.bins.keys,
+                         cl_ulong(b.bins.capacity), b.range, R, volume, c.gradient, c.flags, candidate_lists(rt));
     for (cl_uchar f : read_buffer<cl_uchar>(rt, c.flags, n)) {
-        c.surface += (f & 1) ? 1 : 0;
-        c.splash += (f & 2) ? 1 : 0;
+        c.surface += (f & contract::kFlagSurface) ? 1 : 0;
+        c.splash += (f & contract::kFlagSplash) ? 1 : 0;
     }
     return c;
 }
@@ -246,31 +229,24 @@ void cell_curvature_levels(OpenCLRuntime& rt, const BinnedParticles& b, Particle
     rt.queue().enqueueFillBuffer(mx, cl_uint{0}, 0, cap * sizeof(cl_uint));
     kappa = rt.buffer(keep_kappa ? n * sizeof(cl_float) : sizeof(cl_float), "particle curvature");
     const cl::Buffer& normals = c.gradient;  // turned into normals in place
-    set_args(rt.kernel("particle_normals"), c.gradient, n);
-    rt.run("particle_normals", n);
-    cl::Kernel& k = rt.kernel("particle_curvature");
-    set_args(k, b.sorted, c.flags, b.occupied, cl_uint(b.occupied_count), cl_uint(kBinsPerGroup), 1.0f / b.cell,
-             b.bins.keys, cl_ulong(b.bins.capacity), b.range, normals, R, cl_uint(keep_kappa));
-    set_candidate_args(rt, k, 12);
-    k.setArg(16, cl::Local(rt.max_candidates() * sizeof(cl_float4)));  // normals
-    set_args_from(k, 17, inv_coarse, cells.keys, cl_ulong(cells.capacity), sum, cnt, mx, kappa);
-    rt.run_groups("particle_curvature", (b.occupied_count + kBinsPerGroup - 1) / kBinsPerGroup, kBinGroup);
+    kernels::particle_normals(rt, Items{n}, c.gradient, n);
+    kernels::particle_curvature(rt, Groups{(b.occupied_count + kBinsPerGroup - 1) / kBinsPerGroup, kBinGroup}, b.sorted,
+                                c.flags, b.occupied, cl_uint(b.occupied_count), cl_uint(kBinsPerGroup), 1.0f / b.cell,
+                                b.bins.keys, cl_ulong(b.bins.capacity), b.range, normals, R, cl_uint(keep_kappa),
+                                candidate_lists(rt), kernels::Local<cl_float4>{rt.max_candidates()} /* their normals */,
+                                inv_coarse, cells.keys, cl_ulong(cells.capacity), sum, cnt, mx, kappa);
     c.gradient = DeviceBuffer{};  // normals and flags are read: freed before the buffers below
     c.flags = DeviceBuffer{};
     DeviceBuffer block = rt.buffer(std::size_t(count) * 27 * sizeof(cl_uint), "coarse cell blocks");
-    set_args(rt.kernel("cell_blocks"), morton_cells, count, cells.keys, cl_ulong(cells.capacity), block);
-    rt.run("cell_blocks", count);
+    kernels::cell_blocks(rt, Items{count}, morton_cells, count, cells.keys, cl_ulong(cells.capacity), block);
     DeviceBuffer raw = rt.buffer(cap * sizeof(cl_float), "cell curvature, smoothing");
-    set_args(rt.kernel("cell_curvature"), morton_cells, count, block, sum, cnt, mx, raw);
-    rt.run("cell_curvature", count);
+    kernels::cell_curvature(rt, Items{count}, morton_cells, count, block, sum, cnt, mx, raw);
     // Ping-pong between raw and cell_kappa; the smoothed curvature ends in cell_kappa.
     for (int pass = 0; pass < constants::kCurvatureSmoothingPasses; ++pass) {
-        set_args(rt.kernel("smooth_cell_curvature"), morton_cells, count, block, raw, cell_kappa);
-        rt.run("smooth_cell_curvature", count);
+        kernels::smooth_cell_curvature(rt, Items{count}, morton_cells, count, block, raw, cell_kappa);
         if (pass + 1 < constants::kCurvatureSmoothingPasses) std::swap(raw, cell_kappa);
     }
-    set_args(rt.kernel("cell_levels"), morton_cells, count, cell_kappa, cell_flags, threshold, level);
-    rt.run("cell_levels", count);
+    kernels::cell_levels(rt, Items{count}, morton_cells, count, cell_kappa, cell_flags, threshold, level);
 }
 
 }  // namespace
@@ -282,16 +258,14 @@ SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& b, Particle
     const float half_box = constants::kSurfaceBoxHalf * r;
     const auto first_capacity = std::size_t(float(c.surface + c.splash) * constants::kCoarseCellsPerSurfaceParticle);
     DeviceHash cells = insert_growing(rt, first_capacity, "coarse cell hash", true, [&](DeviceHash& h) {
-        set_args(rt.kernel("mark_surface_cells"), b.sorted, c.flags, n, inv_coarse, half_box, h.keys,
-                 cl_ulong(h.capacity), h.stats);
-        rt.run("mark_surface_cells", n);
+        kernels::mark_surface_cells(rt, Items{n}, b.sorted, c.flags, n, inv_coarse, half_box, h.keys,
+                                    cl_ulong(h.capacity), h.stats);
     });
     const std::size_t cap = cells.capacity;
     DeviceBuffer flags = rt.buffer(cap * sizeof(cl_uint), "coarse cell flags");
     rt.queue().enqueueFillBuffer(flags, cl_uint{0}, 0, cap * sizeof(cl_uint));
-    set_args(rt.kernel("mark_splash_cells"), b.sorted, c.flags, n, inv_coarse, constants::kSplashBoxHalf * r, cells.keys, cl_ulong(cells.capacity),
-             flags);
-    rt.run("mark_splash_cells", n);
+    kernels::mark_splash_cells(rt, Items{n}, b.sorted, c.flags, n, inv_coarse, constants::kSplashBoxHalf * r, cells.keys,
+                               cl_ulong(cells.capacity), flags);
 
     // The cells' slots in key order (the output's) and in Morton order (the per-cell passes'). The
     // keys are read through a map (no host copy on CPU devices); the kernels below only read them.
@@ -323,7 +297,7 @@ SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& b, Particle
     out.cells.reserve(slots.size());
     for (std::size_t s : slots) {
         out.cells.push_back({lattice::unpack(keys[s]), std::uint8_t(forced_level ? forced_level : (*lv)[s])});
-        out.splash.push_back(std::uint8_t(fl[s] & 1));
+        out.splash.push_back(std::uint8_t((fl[s] & contract::kCellSplash) != 0));
         out.curvature.push_back(forced_level ? 0.0f : (*kv)[s]);
     }
     rt.finish();
@@ -359,12 +333,9 @@ std::size_t estimate_points(const std::vector<CoarseCell>& cells, const std::vec
     return total;
 }
 
-/// Kernel `name` from the program built for the table's key width (FINE_KEY_BITS in
-/// kernels/hash_table.cl); launch it before asking for another width.
-cl::Kernel& fine_kernel(OpenCLRuntime& rt, const FinePoints& p, const char* name) {
-    rt.set_fine_key_bits(p.layout.wide ? 64 : 32);
-    return rt.kernel(name);
-}
+/// Selects the program built for the table's key width (FINE_KEY_BITS in kernels/hash_table.cl)
+/// for the fine-point kernels launched next.
+void use_key_width(OpenCLRuntime& rt, const FinePoints& p) { rt.set_fine_key_bits(p.layout.wide ? 64 : 32); }
 
 /// The layout as the kernels take it: the shifts of y and z.
 cl_uint2 key_shifts(const lattice::KeyLayout& l) { return {{cl_uint(l.y_shift), cl_uint(l.z_shift)}}; }
@@ -388,9 +359,9 @@ void grow_fine_points(OpenCLRuntime& rt, FinePoints& p, std::size_t capacity) {
     DeviceBuffer values = rt.buffer(h.capacity * sizeof(cl_float), "fine point values", kShared);
     rt.queue().enqueueFillBuffer(values, std::numeric_limits<float>::quiet_NaN(), 0, h.capacity * sizeof(cl_float));
     if (p.hash.capacity) {
-        set_args(fine_kernel(rt, p, "fine_rehash"), p.hash.keys, p.values, cl_ulong(p.hash.capacity), h.keys, values,
-                 cl_ulong(h.capacity), key_shifts(p.layout), h.stats);
-        rt.run("fine_rehash", p.hash.capacity);
+        use_key_width(rt, p);
+        kernels::fine_rehash(rt, Items{p.hash.capacity}, p.hash.keys, p.values, cl_ulong(p.hash.capacity), h.keys, values,
+                             cl_ulong(h.capacity), key_shifts(p.layout), h.stats);
     }
     p.hash = std::move(h);  // the old table goes back to the pool (queued commands keep their order)
     p.values = std::move(values);
@@ -415,68 +386,84 @@ bool grew_after_insert(OpenCLRuntime& rt, FinePoints& p) {
 }
 
 /// Cells as int4 (x, y, z, level) on the device; level-2 cells flagged in `cube_centres` (empty or
-/// one flag per cell) carry CELL_CUBE_CENTRES (refine_points.cl) in w.
+/// one flag per cell) carry contract::kCellCubeCentres in w.
 /// `in_morton_order`: the cells in Morton order of their coordinates instead of the given order,
 /// where nothing but the work-groups' memory locality depends on it (neighbouring cells then
 /// run close in time, and their gathers and table lines are still in cache).
 DeviceBuffer cell_buffer(OpenCLRuntime& rt, const std::vector<CoarseCell>& cells,
                          const std::vector<std::uint8_t>& cube_centres = {}, bool in_morton_order = false) {
-    constexpr cl_int kCubeCentres = 4;  // CELL_CUBE_CENTRES
     std::vector<cl_int4> data;
     for (std::size_t i = 0; i < cells.size(); ++i) {
         const CoarseCell& c = cells[i];
         data.push_back({{c.coord.x, c.coord.y, c.coord.z,
-                         c.level | (takes_cube_centres(cells, cube_centres, i) ? kCubeCentres : 0)}});
+                         c.level | (takes_cube_centres(cells, cube_centres, i) ? contract::kCellCubeCentres : 0)}});
     }
     if (in_morton_order) lattice::sort_by_morton(data, [](const cl_int4& c) { return glm::ivec3(c.s[0], c.s[1], c.s[2]); });
     return upload(rt, data, "cell list");
 }
 
-void claim_leftovers(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf, std::size_t cell_count,
-                     ClaimPoints claim, const LatticeFrame& frame, const BinnedParticles& b, float r, float R);
-
-/// Stage 6 over the pending points of `cell_count` cells, one work-group per cell with candidates
-/// gathered in local memory; cells whose candidates do not fit leave their points to the per-point
-/// kernel. `claim`: which pending points of its cell a work-group takes (scalar_field.cl, CLAIM_*).
-/// ClaimPoints::Inserted and ::Crossed insert the points they evaluate (stage 5 and 6 in one pass;
-/// stage 8b) and return false when the table filled up: the host then grows it and goes on.
-bool evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf, std::size_t cell_count,
-                    ClaimPoints claim, const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
-    DeviceBuffer overflow = rt.buffer(sizeof(cl_int), "scalar field overflow flag");
-    rt.queue().enqueueFillBuffer(overflow, cl_int{0}, 0, sizeof(cl_int));
-    constexpr std::size_t kMaxCellPoints = 729;  // as in scalar_field.cl
-    auto& k = fine_kernel(rt, p, "scalar_field_cells");
-    set_args(k, cell_buf, cl_int(frame.coarse_steps), cl_int(claim), p.hash.keys, cl_ulong(p.hash.capacity),
-             p.values, frame.step, b.sorted, 1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.capacity), b.range, r, R,
-             overflow);
-    set_candidate_args(rt, k, 15);
-    k.setArg(19, cl::Local(kMaxCellPoints * sizeof(cl_uint)));
-    k.setArg(20, cl::Local(sizeof(cl_uint)));
-    k.setArg(21, cl_int(float(frame.coarse_steps) * frame.step == b.cell));  // coarse cells are the bins
-    k.setArg(22, p.hash.stats);
-    k.setArg(23, key_shifts(p.layout));
-    rt.run_groups("scalar_field_cells", cell_count, kCellGroup);
-    const bool overflow_seen = read_buffer<cl_int>(rt, overflow, 1)[0] != 0;
-    const bool creates = claim == ClaimPoints::Inserted || claim == ClaimPoints::Crossed;
-    if (creates) {
-        const HashCounters c = read_counters(rt, p.hash);
-        p.inserted = c.inserted;
-        if (c.overflow) return false;
-    }
-    if (overflow_seen) claim_leftovers(rt, p, cell_buf, cell_count, claim, frame, b, r, R);
-    return true;
+/// Stage 6 over every point inserted but not evaluated yet, one work-item a point: each unique point
+/// exactly once.
+void evaluate_pending(OpenCLRuntime& rt, FinePoints& p, const LatticeFrame& frame, const BinnedParticles& b, float r,
+                      float R) {
+    DeviceBuffer count = rt.buffer(sizeof(cl_uint), "pending count");
+    DeviceBuffer pending = rt.buffer(p.inserted * sizeof(cl_uint), "pending points");
+    rt.queue().enqueueFillBuffer(count, cl_uint{0}, 0, sizeof(cl_uint));
+    use_key_width(rt, p);
+    kernels::collect_pending(rt, Items{p.hash.capacity}, p.hash.keys, p.values, cl_ulong(p.hash.capacity), count, pending);
+    const cl_uint todo = read_buffer<cl_uint>(rt, count, 1)[0];
+    kernels::scalar_field(rt, Items{todo}, pending, todo, p.hash.keys, p.values, frame.step, b.sorted, 1.0f / b.cell,
+                          b.bins.keys, cl_ulong(b.bins.capacity), b.range, r, R, key_shifts(p.layout));
+    rt.finish();
 }
 
-/// Points left pending by a cell whose candidates did not fit: in the passes that create points
-/// the other cells holding them claim them, as the claiming passes do; what no cell can take goes
-/// to the per-point kernel. So no point's kernel depends on timing.
-void claim_leftovers(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf, std::size_t cell_count,
-                     ClaimPoints claim, const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
-    if (claim == ClaimPoints::Inserted || claim == ClaimPoints::Crossed)
-        evaluate_cells(rt, p, cell_buf, cell_count,
-                       claim == ClaimPoints::Inserted ? ClaimPoints::Level : ClaimPoints::EdgeMidpoints, frame, b, r, R);
-    else
-        evaluate_pending(rt, p, frame, b, r, R);
+/// What one pass of scalar_field_cells left to do.
+struct CellPass {
+    bool table_full = false;  ///< an inserting pass ran out of table: nothing else is known
+    bool overflow = false;    ///< some cell's candidates did not fit: its points are still pending
+};
+
+/// One pass of scalar_field_cells over `cell_count` cells, one work-group per cell with candidates
+/// gathered in local memory. `claim`: which pending points of its cell a work-group takes
+/// (kernels/contract.h, CLAIM_*); the inserting modes also count what they inserted.
+CellPass run_cell_pass(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf, std::size_t cell_count,
+                       ClaimPoints claim, const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
+    DeviceBuffer overflow = rt.buffer(sizeof(cl_int), "scalar field overflow flag");
+    rt.queue().enqueueFillBuffer(overflow, cl_int{0}, 0, sizeof(cl_int));
+    use_key_width(rt, p);
+    const cl_int cells_are_bins = float(frame.coarse_steps) * frame.step == b.cell;
+    kernels::scalar_field_cells(rt, Groups{cell_count, kCellGroup}, cell_buf, cl_int(frame.coarse_steps), cl_int(claim),
+                                p.hash.keys, cl_ulong(p.hash.capacity), p.values, frame.step, b.sorted, 1.0f / b.cell,
+                                b.bins.keys, cl_ulong(b.bins.capacity), b.range, r, R, overflow, candidate_lists(rt),
+                                kernels::Local<cl_uint>{contract::kMaxCellPoints}, kernels::Local<cl_uint>{1},
+                                cells_are_bins, p.hash.stats, key_shifts(p.layout));
+    CellPass pass;
+    pass.overflow = read_buffer<cl_int>(rt, overflow, 1)[0] != 0;
+    if (contract::inserts(claim)) {
+        const HashCounters c = read_counters(rt, p.hash);
+        p.inserted = c.inserted;
+        pass.table_full = c.overflow;
+    }
+    return pass;
+}
+
+/// Stage 6 over the points of `cell_count` cells that `claim` takes, then over what cells whose
+/// candidates did not fit left pending: after an inserting pass the other cells holding those
+/// points claim them (the claiming pass of the same points), and what no cell can take goes to the
+/// per-point kernel. So which kernel evaluates a point depends only on the cells, never on timing.
+/// False when an inserting pass filled the table: the caller grows it and runs the pass again.
+bool evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf, std::size_t cell_count,
+                    ClaimPoints claim, const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
+    for (;;) {
+        const CellPass pass = run_cell_pass(rt, p, cell_buf, cell_count, claim, frame, b, r, R);
+        if (pass.table_full) return false;
+        if (!pass.overflow) return true;
+        if (!contract::inserts(claim)) {
+            evaluate_pending(rt, p, frame, b, r, R);
+            return true;
+        }
+        claim = claim == ClaimPoints::Inserted ? ClaimPoints::Level : ClaimPoints::EdgeMidpoints;
+    }
 }
 
 }  // namespace
@@ -502,50 +489,35 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<Coa
     }
     grow_fine_points(rt, p, p.hash.capacity * 2);  // full (the estimate fell short): the passes apart
     for (;;) {  // stage 5; inserting is idempotent, so after growth the pass simply runs again
-        set_args(fine_kernel(rt, p, "refine_points"), cell_buf, cl_uint(cells.size()), cl_int(frame.coarse_steps),
-                 p.hash.keys, cl_ulong(p.hash.capacity), p.hash.stats, key_shifts(p.layout));
-        rt.run("refine_points", work);
+        use_key_width(rt, p);
+        kernels::refine_points(rt, Items{work}, cell_buf, cl_uint(cells.size()), cl_int(frame.coarse_steps), p.hash.keys,
+                               cl_ulong(p.hash.capacity), p.hash.stats, key_shifts(p.layout));
         if (!grew_after_insert(rt, p)) break;
     }
     evaluate_cells(rt, p, cell_buf, cells.size(), ClaimPoints::Level, frame, b, r, R);
     rt.finish();
 }
 
-void evaluate_pending(OpenCLRuntime& rt, FinePoints& p, const LatticeFrame& frame, const BinnedParticles& b, float r,
-                      float R) {
-    // Stage 6 over the points not evaluated yet: each unique point exactly once.
-    DeviceBuffer count = rt.buffer(sizeof(cl_uint), "pending count");
-    DeviceBuffer pending = rt.buffer(p.inserted * sizeof(cl_uint), "pending points");
-    rt.queue().enqueueFillBuffer(count, cl_uint{0}, 0, sizeof(cl_uint));
-    set_args(fine_kernel(rt, p, "collect_pending"), p.hash.keys, p.values, cl_ulong(p.hash.capacity), count, pending);
-    rt.run("collect_pending", p.hash.capacity);
-    const cl_uint todo = read_buffer<cl_uint>(rt, count, 1)[0];
-    set_args(fine_kernel(rt, p, "scalar_field"), pending, todo, p.hash.keys, p.values, frame.step, b.sorted,
-             1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.capacity), b.range, r, R, key_shifts(p.layout));
-    rt.run("scalar_field", todo);
-    rt.finish();
-}
-
-void evaluate_crossed_midpoints(OpenCLRuntime& rt, FinePoints& p, const std::vector<CoarseCell>& cells,
+void refine_edges(OpenCLRuntime& rt, FinePoints& p, const std::vector<CoarseCell>& cells,
                                 const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
     std::vector<CoarseCell> level2;
     for (const CoarseCell& c : cells)
         if (c.level == 2) level2.push_back(c);
     if (level2.empty()) return;
-    if (frame.coarse_steps > 8)  // claim_crossed_midpoints keeps a cell's corners and midpoints in local memory
+    if (frame.coarse_steps > 8)  // claim_refined_edges keeps a cell's corners and midpoints in local memory
         throw Error("internal: edge refinement takes coarse cells of at most 8 lattice steps");
     adopt_layout(p, frame, level2);
     ensure_fine_room(rt, p, p.inserted + 2 * level2.size());  // about 2 a level-2 cell (estimate_points)
     const DeviceBuffer cell_buf = cell_buffer(rt, level2, {}, true);
     bool grew = false;
-    while (!evaluate_cells(rt, p, cell_buf, level2.size(), ClaimPoints::Crossed, frame, b, r, R)) {
+    while (!evaluate_cells(rt, p, cell_buf, level2.size(), ClaimPoints::RefinedEdges, frame, b, r, R)) {
         grow_fine_points(rt, p, p.hash.capacity * 2);  // full: inserting is idempotent, so the pass runs again
         grew = true;
     }
     ensure_fine_room(rt, p, p.inserted);
     // A point created in a pass that ran out of room, by a cell whose candidates did not fit, is
     // not created again: the claiming pass takes it (it raises no overflow flag the second time).
-    if (grew) claim_leftovers(rt, p, cell_buf, level2.size(), ClaimPoints::Crossed, frame, b, r, R);
+    if (grew) evaluate_cells(rt, p, cell_buf, level2.size(), ClaimPoints::EdgeMidpoints, frame, b, r, R);
     rt.finish();
 }
 

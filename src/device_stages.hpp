@@ -12,6 +12,7 @@
 
 #include "coarse_cells.hpp"
 #include "fine_point_map.hpp"
+#include "kernel_contract.hpp"
 #include "opencl_runtime.hpp"
 
 namespace trilevel {
@@ -86,13 +87,8 @@ struct FinePoints {
     void* mapped_keys = nullptr;  ///< while mapped for the host (map_fine_points)
     float* mapped_values = nullptr;
 };
-/// Which pending points of its cell a work-group claims (scalar_field.cl, CLAIM_*).
-enum class ClaimPoints {
-    Level = 0,          ///< the points of the cell's level (and its cube centres where flagged)
-    EdgeMidpoints = 1,  ///< one odd coordinate: midpoints of level-2 edges (stage 8b)
-    Inserted = 2,       ///< inserts the points of its level and takes those it created
-    Crossed = 3,        ///< inserts the midpoints of a level-2 cell's crossed edges, takes those it created
-};
+/// Which pending points of its cell a work-group claims (kernels/contract.h, CLAIM_*).
+using contract::ClaimPoints;
 /// Inserts the points of `cells` (growing the table as needed) and evaluates the new ones, in one
 /// pass where the table has room. `cube_centres`, empty or one flag per cell: the level-2 cells
 /// flagged get the centres of their level-2 cubes too (the level-2 check's points), in the same
@@ -100,15 +96,12 @@ enum class ClaimPoints {
 void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vector<CoarseCell>& cells,
                          const LatticeFrame& frame, const BinnedParticles& bins, float r, float R,
                          const std::vector<std::uint8_t>& cube_centres = {});
-/// Evaluates every point inserted but not evaluated yet.
-void evaluate_pending(OpenCLRuntime& rt, FinePoints& points, const LatticeFrame& frame, const BinnedParticles& bins,
-                      float r, float R);
-/// Stage 8b (host/edge_refinement.hpp) on the device: inserts and evaluates the midpoints of the
+/// Edge refinement (host/edge_refinement.hpp) on the device: inserts and evaluates the midpoints of the
 /// level-2 edges of the level-2 cells among `cells` whose ends the surface separates and that the
 /// table does not hold yet, in one pass over those cells (each finds its corners in the table,
 /// inserts its crossed midpoints and evaluates those it created). Every point of those cells'
-/// level must be evaluated already. The host reference is level2_crossing_midpoints.
-void evaluate_crossed_midpoints(OpenCLRuntime& rt, FinePoints& points, const std::vector<CoarseCell>& cells,
+/// level must be evaluated already. The host reference is edge_refinement_points.
+void refine_edges(OpenCLRuntime& rt, FinePoints& points, const std::vector<CoarseCell>& cells,
                                 const LatticeFrame& frame, const BinnedParticles& bins, float r, float R);
 /// Maps the table for the host and returns a view of it: no copy on CPU devices (the buffers are
 /// allocated host-accessible); an empty view when nothing was ever inserted. Host writes (transition continuity) land in the table. Call

@@ -14,13 +14,10 @@
 
 namespace trilevel {
 
-std::string_view embedded_kernel_source(std::string_view name);  // generated at build time
+std::string embedded_program_source();       // generated at build time: kernels/kernels.cmake in order
+std::string embedded_device_input_source();  // the same, for the device-input program (device_input.cl)
 
 namespace {
-
-// Program sources in dependency order: the hash and the neighbour loop come first.
-constexpr const char* kKernelFiles[] = {"hash_table",   "particle_binning", "color_field", "surface_cells",
-                                        "curvature",    "refine_points",    "scalar_field"};
 
 std::string type_name(cl_device_type t) {
     if (t & CL_DEVICE_TYPE_GPU) return "GPU";
@@ -217,10 +214,8 @@ cl::Program OpenCLRuntime::build_program(int bits) {
     const auto add_time = [&](double& total) {
         total = std::max(total, 0.0) + std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     };
-    std::string source;
-    if (bits == 0) source = std::string(embedded_kernel_source("device_input")) + "\n";
-    else
-        for (const char* f : kKernelFiles) source += std::string(embedded_kernel_source(f)) + "\n";
+    // bits == 0: the device-input program of its own (it needs double precision, the main one does not)
+    const std::string source = bits == 0 ? embedded_device_input_source() : embedded_program_source();
     const std::string options = bits == 0 ? std::string("-cl-std=CL1.2")
                                           : build_options(max_candidates_, serial_gather()) + " -DFINE_KEY_BITS=" + std::to_string(bits);
     // The cached binary of exactly this source, these options and this device and driver, if any

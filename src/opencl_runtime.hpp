@@ -49,7 +49,6 @@ public:
     /// a work-group per item, unvectorised, each paying a launch. 256 made those kernels 1.4x faster.
     static constexpr std::size_t kDefaultWorkGroup = 256;
     std::size_t work_group_size() const { return work_group_; }
-    void set_work_group_size(std::size_t w) { work_group_ = w; }
 
     /// Enqueues `name` over `global` work-items (rounded up to the work-group size), records its event.
     void run(const std::string& name, std::size_t global);

@@ -280,14 +280,14 @@ FinePointMap close_band(OpenCLRuntime& rt, FinePoints& points, std::vector<Coars
     }
 }
 
-/// Stage 8b (host/edge_refinement.hpp): true values at the midpoints of crossed level-2 edges,
+/// Edge refinement (host/edge_refinement.hpp): true values at the midpoints of crossed level-2 edges,
 /// found, inserted and evaluated on the device. Continuity never touches these points (no
 /// level-3 cell holds them), and the values it wrote stay in the table (a rehash copies them).
 /// `field` is re-mapped.
-void refine_level2_edges(OpenCLRuntime& rt, FinePoints& points, FinePointMap& field,
+void run_edge_refinement(OpenCLRuntime& rt, FinePoints& points, FinePointMap& field,
                          const std::vector<CoarseCell>& cells, const LatticeFrame& frame, const BinnedParticles& bins,
                          float r, float R) {
-    on_device(rt, points, field, [&] { evaluate_crossed_midpoints(rt, points, cells, frame, bins, r, R); });
+    on_device(rt, points, field, [&] { refine_edges(rt, points, cells, frame, bins, r, R); });
 }
 
 /// Post-processing for rendering, in world units: sliver cleanup, then smoothing (Params::smooth,
@@ -584,7 +584,7 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
         FinePointMap field = close_band(rt, points, cells, g.frame, bins, r, R, level2, s);
         timer.restart();  // close_band recorded its own two entries
         rt.set_stage("edge_refinement");
-        refine_level2_edges(rt, points, field, cells, g.frame, bins, r, R);
+        run_edge_refinement(rt, points, field, cells, g.frame, bins, r, R);
         bins = BinnedParticles{};
         timer.stage("edge_refinement");
         s.surface_cells = cells.size();

@@ -8,6 +8,7 @@
 
 #include "device_stages.hpp"
 #include "edge_refinement.hpp"
+#include "kernel_launch.hpp"
 #include "reference/reference_stages.hpp"
 #include "stage_constants.hpp"
 #include "test_support.hpp"
@@ -103,10 +104,7 @@ Inserted insert_keys(const std::vector<cl_ulong>& in, std::size_t count, std::si
     cl::Buffer stats(rt.context(), CL_MEM_READ_WRITE, 2 * sizeof(cl_int));
     rt.queue().enqueueFillBuffer(keys, ~cl_ulong{0}, 0, capacity * sizeof(cl_ulong));
     rt.queue().enqueueFillBuffer(stats, cl_int{0}, 0, 2 * sizeof(cl_int));
-    auto& k = rt.kernel("hash_insert_keys");
-    k.setArg(0, keys_in); k.setArg(1, cl_uint(count)); k.setArg(2, keys); k.setArg(3, cl_ulong(capacity));
-    k.setArg(4, slots); k.setArg(5, stats);
-    rt.run("hash_insert_keys", count);
+    kernels::hash_insert_keys(rt, kernels::Items{count}, keys_in, cl_uint(count), keys, cl_ulong(capacity), slots, stats);
     rt.finish();
     return {read_buffer<cl_ulong>(rt, keys, capacity), read_buffer<cl_int>(rt, stats, 2),
             read_buffer<cl_long>(rt, slots, count)};
@@ -199,11 +197,11 @@ TEST_CASE("colour field, surface and splash particles match the C++ reference", 
     for (std::size_t i = 0; i < x.size(); ++i) {
         const glm::vec3 g = grad[i];
         REQUIRE(glm::length(g - ref.gradient[i]) * R <= 1e-4f + 1e-4f * glm::length(ref.gradient[i]) * R);
-        REQUIRE(bool(flags[i] & 2) == bool(ref.splash[i]));
-        REQUIRE(bool(flags[i] & 4) == (ref.neighbours[i] < constants::kThinNeighbours));
-        device_surface += flags[i] & 1;
+        REQUIRE(bool(flags[i] & contract::kFlagSplash) == bool(ref.splash[i]));
+        REQUIRE(bool(flags[i] & contract::kFlagThin) == (ref.neighbours[i] < constants::kThinNeighbours));
+        device_surface += (flags[i] & contract::kFlagSurface) != 0;
         // Only a gradient within float noise of the threshold may classify differently.
-        if (bool(flags[i] & 1) != bool(ref.surface[i]))
+        if (bool(flags[i] & contract::kFlagSurface) != bool(ref.surface[i]))
             CHECK(std::fabs(glm::length(ref.gradient[i]) * R - constants::kSurfaceGradient) < 1e-4f);
     }
     CHECK(c.surface == device_surface);
@@ -477,9 +475,9 @@ TEST_CASE("edge refinement on the device evaluates exactly the host reference's 
         refine_and_evaluate(rt, points, cells, frame, b, r, R);
         const FinePointMap before = read_fine_points(rt, points);
         const std::size_t inserted = points.inserted;
-        expected = level2_crossing_midpoints(cells, frame, before);
+        expected = edge_refinement_points(cells, frame, before);
         REQUIRE(expected.size() > 20);
-        evaluate_crossed_midpoints(rt, points, cells, frame, b, r, R);
+        refine_edges(rt, points, cells, frame, b, r, R);
         CHECK(points.inserted == inserted + expected.size());
         after.push_back(read_fine_points(rt, points));
         for (std::size_t s = 0; s < before.capacity(); ++s)  // the points there before keep their bits
@@ -529,9 +527,9 @@ TEST_CASE("edge refinement on the device grows the table when the midpoints over
         unmap_fine_points(rt, points);
     }
     const FinePointMap host = read_fine_points(rt, points);
-    const std::vector<std::uint64_t> expected = level2_crossing_midpoints(cells, frame, host);
+    const std::vector<std::uint64_t> expected = edge_refinement_points(cells, frame, host);
     REQUIRE(expected.size() == 40 * 54);  // 54 edges a cell, none shared
-    evaluate_crossed_midpoints(rt, points, cells, frame, b, r, R);
+    refine_edges(rt, points, cells, frame, b, r, R);
     CHECK(points.hash.capacity > capacity);  // 2160 midpoints where the pass reserved 80
     CHECK(points.inserted == before + expected.size());
     const FinePointMap map = read_fine_points(rt, points);
@@ -591,4 +589,72 @@ TEST_CASE("32-bit and 64-bit fine-point keys hold the same points with the same 
     }
     CHECK(held == inserted[0]);
     CHECK(differ == 0);
+}
+
+namespace {
+
+/// An unjittered lattice block of spacing 2r (nx x ny x nz particles), rotated by `rot` about its
+/// centre and placed at `centre`: its face particles have parallel normals, so 1 - n_i . n_j rounds
+/// to either side of zero.
+std::vector<glm::vec3> lattice_block(float r, glm::ivec3 dims, const glm::mat3& rot, glm::vec3 centre) {
+    std::vector<glm::vec3> x;
+    const glm::vec3 mid = 0.5f * glm::vec3(dims - 1);
+    for (int k = 0; k < dims.z; ++k)
+        for (int j = 0; j < dims.y; ++j)
+            for (int i = 0; i < dims.x; ++i) x.push_back(centre + rot * (2.0f * r * (glm::vec3(i, j, k) - mid)));
+    return x;
+}
+
+glm::mat3 rotation(float angle, glm::vec3 axis) {
+    const glm::vec3 u = glm::normalize(axis);
+    const float c = std::cos(angle), s = std::sin(angle);
+    const glm::mat3 k(0.0f, u.z, -u.y, -u.z, 0.0f, u.x, u.y, -u.x, 0.0f);  // column-major cross matrix
+    return glm::mat3(1.0f) + s * k + (1.0f - c) * (k * k);
+}
+
+}  // namespace
+
+TEST_CASE("curvature stays non-negative and matches the reference on lattices with parallel normals",
+          "[device][curvature]") {
+    // 1 - n_i . n_j rounds below zero for parallel unit normals; a particle's sum of such terms, and
+    // a cell's, must not wrap around as an unsigned fixed-point total or rank above every positive
+    // kappa in the neighbour maximum.
+    auto& rt = runtime();
+    const float r = 0.025f, R = 4 * r, threshold = 2.0f;
+    const glm::mat3 orientations[] = {glm::mat3(1.0f), rotation(0.5f, {0, 0, 1}), rotation(0.7853982f, {1, 1, 0}),
+                                      rotation(1.1f, {0.3f, -0.5f, 0.8f}), rotation(2.6f, {1, 2, 3})};
+    const glm::vec3 offsets[] = {glm::vec3(0.0f), glm::vec3(0.5f * r), glm::vec3(0.37f * r, 1.21f * r, 0.913f * r)};
+    std::size_t negative_terms_seen = 0, cells_compared = 0;
+    for (std::size_t o = 0; o < std::size(orientations); ++o)
+        for (std::size_t f = 0; f < std::size(offsets); ++f) {
+            INFO("orientation " << o << " offset " << f);
+            const std::vector<glm::vec3> x =
+                lattice_block(r, {14, 11, 9}, orientations[o], glm::vec3(40 * r) + offsets[f]);
+            BinnedParticles b = bin_particles(rt, &x[0].x, x.size(), glm::dvec3(0.0), R);
+            ParticleClasses c = classify_particles(rt, b, r, R);
+            const auto order = read_buffer<cl_uint>(rt, b.order, x.size());
+            const SurfaceCells dev = surface_cells(rt, b, c, r, R, 4 * r, threshold, 0, true);
+            const auto ref_flags = reference::color_field(x, r, R);
+            const auto ref_kappa = reference::curvature(x, ref_flags, R);
+            const auto ref = reference::surface_cells(x, ref_flags, ref_kappa, glm::vec3(0.0f), r, R, threshold, 0);
+            const auto kappa = unsort(dev.particle_kappa, order);
+            std::size_t negative = 0;
+            for (std::size_t i = 0; i < x.size(); ++i) {
+                negative += kappa[i] < 0.0f;
+                REQUIRE(kappa[i] == Approx(ref_kappa[i]).margin(1e-4));
+                negative_terms_seen += ref_flags.surface[i] && ref_kappa[i] < 1e-6f;
+            }
+            CHECK(negative == 0);  // curvature is >= 0 by definition
+            REQUIRE(dev.cells.size() == ref.cells.size());
+            for (std::size_t i = 0; i < ref.cells.size(); ++i) {
+                INFO("cell " << i);
+                REQUIRE(dev.cells[i].coord == ref.cells[i].coord);
+                REQUIRE(dev.curvature[i] >= 0.0f);
+                REQUIRE(dev.curvature[i] == Approx(ref.curvature[i]).margin(1e-4));
+                if (std::fabs(ref.curvature[i] - threshold) > 1e-3f) REQUIRE(dev.cells[i].level == ref.cells[i].level);
+                ++cells_compared;
+            }
+        }
+    CHECK(negative_terms_seen > 100);  // face particles with (nearly) zero curvature: the case in question
+    CHECK(cells_compared > 1000);
 }

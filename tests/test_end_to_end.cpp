@@ -148,7 +148,13 @@ TEST_CASE("every ../shared/data frame reconstructs closed and oriented at cells 
             Stats st;
             Mesh m = shared_reconstructor().reconstruct(s.positions.data(), s.size(), params(r, mode, cell), &st);
             require_closed(m, name + " cell " + std::to_string(cell) + (mode == Mode::Adaptive ? " adaptive" : ""));
-            if (mode == Mode::Adaptive) CHECK(st.triangles_level2 + st.triangles_level3 + st.triangles_patch == st.triangles);
+            if (mode == Mode::Adaptive) {
+                CHECK(st.triangles_level2 + st.triangles_level3 + st.triangles_patch == st.triangles);
+                // Sampled (every 3rd triangle against its neighbourhood): the crack collapse and the
+                // patches must not make non-adjacent triangles cross.
+                INFO(name);
+                CHECK(test::self_intersections(m, 3) == 0);
+            }
         }
     }
 }
@@ -241,4 +247,35 @@ TEST_CASE("work-groups whose candidates do not fit local memory fall back to glo
     CHECK(fallback.surface_cells == normal.surface_cells);
     CHECK(fallback.fine_points == normal.fine_points);
     CHECK(double(fallback.triangles) == Approx(double(normal.triangles)).epsilon(0.01));
+}
+
+TEST_CASE("a frame translated by 1e5 r gives the same mesh, translated, to the float resolution there", "[e2e][precision]") {
+    // r = 1/32 and particle coordinates on a 2^-12 grid: the particles, the lattice (snapped to
+    // coarse cells of 4r = 1/8) and so the field are the same bit for bit 1e5 r = 3125 away; only
+    // turning lattice coordinates into output positions sees the translation. Each vertex must then
+    // be its untranslated position plus the translation, rounded once to the float spacing there
+    // (2^-12 = 0.0078 r), not lose more to intermediate float steps.
+    const float r = 1.0f / 32.0f;
+    ParticleSet s = generate_scene("pool-and-drop", r, 3);
+    for (float& c : s.positions) c = std::ldexp(std::round(std::ldexp(c, 12)), -12);
+    const float T = 1e5f * r;
+    const double ulp = std::ldexp(1.0, -12);  // float spacing in [2048, 4096)
+    const Mesh m0 = shared_reconstructor().reconstruct(s.positions.data(), s.size(), params(r, Mode::Adaptive));
+    require_closed(m0, "pool-and-drop");
+    for (int axis = 0; axis < 3; ++axis) {
+        INFO("translated along axis " << axis);
+        std::vector<float> moved = s.positions;
+        for (std::size_t i = axis; i < moved.size(); i += 3) moved[i] += T;  // exact: on the 2^-12 grid
+        const Mesh m1 = shared_reconstructor().reconstruct(moved.data(), s.size(), params(r, Mode::Adaptive));
+        REQUIRE(m1.triangles == m0.triangles);
+        REQUIRE(m1.positions.size() == m0.positions.size());
+        double worst = 0.0;
+        for (std::size_t i = 0; i < m0.positions.size(); ++i) {
+            const double shift = (i % 3 == std::size_t(axis)) ? double(T) : 0.0;
+            // m0's own rounding (|x| < 8: below 2^-20) is far under the spacing at 3125.
+            worst = std::max(worst, std::fabs(double(m1.positions[i]) - (double(m0.positions[i]) + shift)));
+        }
+        INFO("largest deviation " << worst / ulp << " float spacings (" << worst / r << " r)");
+        CHECK(worst <= 0.5 * ulp + 1e-6 * r);
+    }
 }

@@ -241,7 +241,7 @@ TEST_CASE("level-2 sphere with true values at crossed edge midpoints (edge refin
     SphereSetup s = sphere_setup(12.0, 4, 2);
     const Mesh plain = triangulate_cells(s.cells, s.frame, s.field);
     const glm::dvec3 centre = s.centre;
-    for (std::uint64_t key : level2_crossing_midpoints(s.cells, s.frame, s.field))
+    for (std::uint64_t key : edge_refinement_points(s.cells, s.frame, s.field))
         s.field.insert(key, float(glm::length(glm::dvec3(lattice::unpack(key)) - centre) - s.radius));
     const Mesh refined = triangulate_cells(s.cells, s.frame, s.field);
     CHECK(is_closed_and_oriented(refined));
@@ -272,7 +272,7 @@ TEST_CASE("the crossed level-2 midpoints: every crossed edge of every level-2 ce
     s.frame = {glm::vec3(0.0f), 0.5f, 4};
     s.cells = {{{2, 0, 1}, 2}, {{1, 1, 1}, 2}, {{2, 1, 1}, 2}};
     s.field = test::make_field(s.cells, s.frame, [](glm::ivec3 p) { return float(p.z) - 5.3f; });
-    std::vector<std::uint64_t> keys = level2_crossing_midpoints(s.cells, s.frame, s.field);
+    std::vector<std::uint64_t> keys = edge_refinement_points(s.cells, s.frame, s.field);
     CHECK(keys.size() == 21);
     CHECK(std::is_sorted(keys.begin(), keys.end()));
     CHECK(std::adjacent_find(keys.begin(), keys.end()) == keys.end());
@@ -281,9 +281,9 @@ TEST_CASE("the crossed level-2 midpoints: every crossed edge of every level-2 ce
         CHECK((p.z == 5 && p.x % 2 == 0 && p.y % 2 == 0));
     }
     s.field.insert(keys[3], 0.25f);  // held already (a level-3 cell's point): not listed
-    CHECK(level2_crossing_midpoints(s.cells, s.frame, s.field).size() == 20);
+    CHECK(edge_refinement_points(s.cells, s.frame, s.field).size() == 20);
     s.cells[1].level = 3;  // level-3 cells list none
-    CHECK(level2_crossing_midpoints(s.cells, s.frame, s.field).size() < 20);
+    CHECK(edge_refinement_points(s.cells, s.frame, s.field).size() < 20);
 }
 
 TEST_CASE("triangulation is bit-identical for 1 and 2 threads", "[mesh]") {

@@ -124,7 +124,7 @@ std::vector<float> curvature(const std::vector<glm::vec3>& x, const ParticleFlag
             if (std::size_t(j) == i || !flags.surface[std::size_t(j)]) return;
             k += (1.0 - glm::dot(normal[i], normal[std::size_t(j)])) * (1.0 - std::sqrt(d2) / R);  // eq. 1-2
         });
-        kappa[i] = float(k);
+        kappa[i] = float(std::max(k, 0.0));  // >= 0 by definition; parallel normals round either way
     });
     return kappa;
 }
