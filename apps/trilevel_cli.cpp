@@ -150,7 +150,7 @@ trilevel::Params make_params(const ReconstructArgs& a) {
     else if (a.crack_closing == "patches") p.crack_closing = trilevel::CrackClosing::Patches;
     else throw UsageError("--crack-closing must be collapse or patches, got '" + a.crack_closing + "'");
     if (!a.memory.empty()) p.memory_limit_bytes = parse_bytes(a.memory);
-    p.level_hysteresis = 0.2f;  // sequences (README, "Temporal coherence"); no effect on one file
+    p.level_hysteresis = 0.2f;  // sequences (docs/calibration.md, "Temporal coherence"); no effect on one file
     if (!a.hysteresis.empty()) {
         const double h = parse_number("--level-hysteresis", a.hysteresis);
         if (!(h >= 0 && h < 1)) throw UsageError("--level-hysteresis must lie in [0, 1), got '" + a.hysteresis + "'");

@@ -151,7 +151,7 @@ def machine_flops(cache):
 # ---------------------------------------------------------------------------------------------
 
 def splashsurf_cmd(splashsurf, path, radius, threads, out):
-    """splashsurf with the issue's settings: smoothing length 2r, cube size r, iso 0.6."""
+    """splashsurf with the settings the comparison uses: smoothing length 2r, cube size r, iso 0.6."""
     return list(splashsurf) + ["reconstruct", path, "-r", str(radius), "-l", "2.0", "-c", "1.0", "-t", "0.6",
                                "-n", str(threads), "-q", "-o", out]
 
@@ -165,7 +165,7 @@ def make_tools(args, trilevel, splashsurf, openvdb):
         tools.append(dict(name=name, cmd=cmd, kind="trilevel"))
 
     tri("trilevel-adaptive", [])
-    # Levels from curvature alone, as before the level-2 check was on by default (README, "Levels
+    # Levels from curvature alone, as before the level-2 check was on by default (docs/calibration.md, "Levels
     # and choosing the threshold"): what the check buys, measured in the same run.
     tri("trilevel-adaptive-curvature", ["--level2-tolerance", "0", "--curvature-threshold", "4.5"])
     tri("trilevel-uniform1", ["--mode", "uniform", "--cell", "1"])
@@ -475,7 +475,7 @@ def write_report(path, args, datasets, tools, rows, summary, checks, compares, m
         "jobs: medians are the numbers to read, min shows the noise floor.")
     add("")
     # Targets summary
-    add("## Targets (issue 4 / issue 3)")
+    add("## Targets (docs/design.md §10)")
     add("")
     add("| target | dataset | measured | goal | status |")
     add("| --- | --- | --- | --- | --- |")
@@ -506,9 +506,9 @@ def write_report(path, args, datasets, tools, rows, summary, checks, compares, m
             T = summary.get((dsn, tool))
             if dsn not in ("db23", "db23x8", "pool-and-drop") or not U or not T:
                 continue
-            target(f"adaptive{tag} / uniform r triangles (issue 3)", dsn, ratio(T["triangles"], U["triangles"]), 0.40)
-            target(f"adaptive{tag} / uniform r peak memory (issue 3)", dsn, ratio(T["rss_med"], U["rss_med"]), 1.0)
-            target(f"adaptive{tag} / uniform r wall time (issue 3)", dsn, ratio(T["wall_med"], U["wall_med"]), 1.0)
+            target(f"adaptive{tag} / uniform r triangles", dsn, ratio(T["triangles"], U["triangles"]), 0.40)
+            target(f"adaptive{tag} / uniform r peak memory", dsn, ratio(T["rss_med"], U["rss_med"]), 1.0)
+            target(f"adaptive{tag} / uniform r wall time", dsn, ratio(T["wall_med"], U["wall_med"]), 1.0)
             c = compares.get(dsn, {}).get(tool)
             if c and "symmetric" in c:
                 target(f"deviation{tag} mean vs uniform r [r]", dsn, c["symmetric"].get("mean"), 0.1)

@@ -1,4 +1,4 @@
-// Band closure (DESIGN §7); see band_closure.hpp.
+// Band closure (docs/design.md §7); see band_closure.hpp.
 #include "band_closure.hpp"
 
 #include <algorithm>

@@ -1,4 +1,4 @@
-// Band closure (DESIGN §2 stage 7, §7): no iso-surface crossing may sit on a face of the cell set
+// Band closure (docs/design.md §2 stage 7, §7): no iso-surface crossing may sit on a face of the cell set
 // whose neighbour is missing.
 #pragma once
 

@@ -1,5 +1,5 @@
 // Lookup helpers of the host stages: coarse cell coordinates -> level, and batched fine-point
-// lookups that overlap their cache misses (DESIGN §4: sparse structures only).
+// lookups that overlap their cache misses (docs/design.md §4: sparse structures only).
 #pragma once
 
 #include <cstdint>

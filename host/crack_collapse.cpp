@@ -1,4 +1,4 @@
-// Crack closing by collapse (DESIGN §7); see crack_collapse.hpp.
+// Crack closing by collapse (docs/design.md §7); see crack_collapse.hpp.
 #include "crack_collapse.hpp"
 
 #include <glm/glm.hpp>

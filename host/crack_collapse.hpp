@@ -1,4 +1,4 @@
-// Crack closing by collapse (DESIGN §7, beyond the paper's §3.3.2): the inner crossings of a
+// Crack closing by collapse (docs/design.md §7, beyond the paper's §3.3.2): the inner crossings of a
 // transition face are merged into the level-2 crossings beside them, which removes the crack
 // patches instead of adding them.
 #pragma once

@@ -1,4 +1,4 @@
-// Crack closing on transition faces (DESIGN §7); see crack_stitch.hpp.
+// Crack closing on transition faces (docs/design.md §7); see crack_stitch.hpp.
 #include "crack_stitch.hpp"
 
 #include <array>
@@ -59,7 +59,7 @@ private:
         return id;
     }
     // Vertex of a level-2 edge from p to p+2e in the face: the unit sub-edge that holds the
-    // crossing (DESIGN §7). The midpoint is a level-3 point here, so its stored value (after
+    // crossing (docs/design.md §7). The midpoint is a level-3 point here, so its stored value (after
     // continuity) is what the level-2 midpoint rule gives the surface mesher's level-2 side.
     std::int32_t level2_vertex(glm::ivec3 p, int axis) const {
         glm::ivec3 e{0};

@@ -1,4 +1,4 @@
-// Crack closing on transition faces (paper §3.3.2, generalised as in DESIGN §7).
+// Crack closing on transition faces (paper §3.3.2, generalised as in docs/design.md §7).
 #pragma once
 
 #include <cstdint>

@@ -1,7 +1,7 @@
 // Level-2 edge refinement: one bisection step for the vertices of flat regions.
 //
 // Beyond the paper: a crossing on a level-2 edge (2 lattice steps) is placed on the unit sub-edge
-// whose end signs differ, interpolating with the edge's midpoint value (DESIGN §7 vertex rule).
+// whose end signs differ, interpolating with the edge's midpoint value (docs/design.md §7 vertex rule).
 // Where no level-3 cell shares the edge, the midpoint is not constrained by transition
 // continuity, so its true field value can be used: the vertex then lands where the uniform
 // cell-r mesh puts it, while the level-2 triangle count stays the same. Costs one scalar-field

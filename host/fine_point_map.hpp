@@ -1,4 +1,4 @@
-// Host view of the open-addressing hash of fine lattice points (DESIGN §5): the key and value
+// Host view of the open-addressing hash of fine lattice points (docs/design.md §5): the key and value
 // arrays as the device filled them, probed with the same hash and linear probing. Keys are stored
 // in the frame's lattice::KeyLayout (4 or 8 bytes); lookups take lattice::pack() keys, whose hash
 // gives the home slot whatever the storage.

@@ -1,4 +1,4 @@
-// The fine lattice shared by every stage (DESIGN §5, paper eq. 4-6 made sparse).
+// The fine lattice shared by every stage (docs/design.md §5, paper eq. 4-6 made sparse).
 //
 // Lattice points have integer coordinates relative to a grid origin that lies two coarse cells
 // below the particles' bounding box. A coarse cell spans `coarse_steps` lattice steps per axis;
@@ -139,7 +139,7 @@ void sort_by_morton(std::vector<T>& items, Coord coord) {
 /// A vertex lies on the lattice edge from point `p` to p + unit(axis): key = point key | axis << 60.
 inline std::uint64_t edge_key(glm::ivec3 p, int axis) { return pack(p) | (std::uint64_t(axis) << 60); }
 
-/// Value at the midpoint of an uncrossed level-2 edge (paper §3.3.1, DESIGN §7). The same
+/// Value at the midpoint of an uncrossed level-2 edge (paper §3.3.1, docs/design.md §7). The same
 /// expression serves transition continuity and the level-2 vertex rule, so both sides of a
 /// transition face compute bit-identical values.
 inline float edge_midpoint_value(float a, float b) { return 0.5f * (a + b); }

@@ -1,6 +1,6 @@
-// The level-2 check (beyond the paper; DESIGN §3.2): a coarse cell that curvature left at level 2
+// The level-2 check (beyond the paper; docs/design.md §3.2): a coarse cell that curvature left at level 2
 // is meshed with cells of r after all where its level-2 lattice misses the field. The field phi is
-// a signed distance (DESIGN §3.3), so the gap between its true value at the centre of a level-2
+// a signed distance (docs/design.md §3.3), so the gap between its true value at the centre of a level-2
 // cube and the trilinear value there (the mean of the cube's corners) is about how far the
 // level-2 surface would stand off the true one near that point. Curvature from particle normals
 // misses thin sheets and ridges and fires on disordered particles on flat water; this check

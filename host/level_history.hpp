@@ -1,4 +1,4 @@
-// Temporal coherence of the levels across the frames of a sequence (DESIGN §3.2, issue 6).
+// Temporal coherence of the levels across the frames of a sequence (docs/design.md §3.2).
 //
 // The coarse lattice is global: its origin is a whole number of coarse cells (make_grid in
 // src/reconstructor.cpp), so coarse cell c of a frame whose origin is `base` coarse cells from

@@ -1,4 +1,4 @@
-// Table generation for face-consistent marching cubes (DESIGN §7); see marching_cubes.hpp.
+// Table generation for face-consistent marching cubes (docs/design.md §7); see marching_cubes.hpp.
 #include "marching_cubes.hpp"
 
 #include <stdexcept>
@@ -79,7 +79,7 @@ bool triangulate_cycle(std::vector<int> poly, CubeCase& out) {
     return false;
 }
 
-// Chains the 6 faces' segments into cycles and triangulates each cycle (DESIGN §7).
+// Chains the 6 faces' segments into cycles and triangulates each cycle (docs/design.md §7).
 CubeCase make_case(unsigned cube_case) {
     const auto& faces = cube_faces();
     std::array<int, 12> next;

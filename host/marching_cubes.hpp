@@ -1,4 +1,4 @@
-// Face-consistent marching cubes (paper §3.3, DESIGN §7), table generated at start-up.
+// Face-consistent marching cubes (paper §3.3, docs/design.md §7), table generated at start-up.
 //
 // Each cube face yields its crossing segments from its own four corner signs alone (ambiguous
 // faces always separate the inside corners), oriented so that the two cubes sharing a face get

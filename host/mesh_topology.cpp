@@ -1,4 +1,4 @@
-// Index-topology checks of a mesh (DESIGN §7); see mesh_topology.hpp.
+// Index-topology checks of a mesh (docs/design.md §7); see mesh_topology.hpp.
 #include "mesh_topology.hpp"
 
 #include <algorithm>

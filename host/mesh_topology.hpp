@@ -1,4 +1,4 @@
-// Index topology of a triangle mesh (DESIGN §7: closed, consistently oriented, no welding).
+// Index topology of a triangle mesh (docs/design.md §7: closed, consistently oriented, no welding).
 #pragma once
 
 #include <cstddef>

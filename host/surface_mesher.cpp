@@ -1,4 +1,4 @@
-// Triangulation of the coarse surface cells (paper §3.3, DESIGN §6-7); see surface_mesher.hpp.
+// Triangulation of the coarse surface cells (paper §3.3, docs/design.md §6-7); see surface_mesher.hpp.
 //
 // Phase 1, parallel over fixed chunks of cells: gather each cell's (n+1)^3 values, run marching
 // cubes with cell-local vertex slots, stitch its transition faces (level-3 side). Phase 2, in
@@ -49,7 +49,7 @@ struct Scratch {
     std::vector<const float*> mid_found;
 };
 
-// The crossing on the unit edge from `lower` along `axis` with end values va, vb (DESIGN §7);
+// The crossing on the unit edge from `lower` along `axis` with end values va, vb (docs/design.md §7);
 // both sides of a transition face call it with identical arguments.
 glm::vec3 crossing_position(const LatticeFrame& f, glm::ivec3 lower, int axis, float va, float vb) {
     const float t = va / (va - vb);
@@ -157,7 +157,7 @@ void CellMesher::mesh(const CoarseCell& cell, Scratch& s, ChunkOut& out) const {
 
     // Vertex of cube edge e of the cube at local (x, y, z), created on first use. A level-2 edge
     // holds at most one crossing, so its slot is the edge's; the vertex lies on the unit sub-edge
-    // whose end signs differ, the midpoint valued by the level-2 midpoint rule (DESIGN §7,
+    // whose end signs differ, the midpoint valued by the level-2 midpoint rule (docs/design.md §7,
     // host/edge_refinement.hpp): the same key and position from every cell sharing the edge.
     auto vertex = [&](int e, glm::ivec3 cube, int id0) -> std::uint32_t {
         const mc::CubeEdge& ce = edges[e];
@@ -197,7 +197,7 @@ void CellMesher::mesh(const CoarseCell& cell, Scratch& s, ChunkOut& out) const {
     if (!l2) stitch(cell, s, out);
 }
 
-// Crack patches on the faces this level-3 cell shares with level-2 cells (DESIGN §7).
+// Crack patches on the faces this level-3 cell shares with level-2 cells (docs/design.md §7).
 void CellMesher::stitch(const CoarseCell& cell, Scratch& s, ChunkOut& out) const {
     for (int axis = 0; axis < 3; ++axis)
         for (int side = 0; side < 2; ++side) {
@@ -265,7 +265,7 @@ void release(std::vector<T>& v) {
     std::vector<T>().swap(v);
 }
 
-// Phase 2, in chunk order: number vertices by first appearance in the canonical stream (DESIGN §6);
+// Phase 2, in chunk order: number vertices by first appearance in the canonical stream (docs/design.md §6);
 // only vertices on a cell boundary can repeat, so only they go through the index. A vertex made
 // by any level-2 cube is level 2.
 void number_chunk(ChunkOut& c, VertexIndex& index, std::vector<std::uint32_t>& ids, Mesh& mesh) {

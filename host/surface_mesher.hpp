@@ -1,4 +1,4 @@
-// Triangulation of the coarse surface cells (paper §3.3, DESIGN §2 stages 9-10, §6, §7).
+// Triangulation of the coarse surface cells (paper §3.3, docs/design.md §2 stages 9-10, §6, §7).
 #pragma once
 
 #include <vector>

@@ -1,4 +1,4 @@
-// Transition continuity (paper §3.3.1, DESIGN §7); see transition_continuity.hpp.
+// Transition continuity (paper §3.3.1, docs/design.md §7); see transition_continuity.hpp.
 //
 // As in the paper, only level-2 cells with a level-3 neighbour do work: across a face (the whole
 // closed face) or across a coarse edge (that edge). Their level-2 values are gathered into a local

@@ -1,4 +1,4 @@
-// Transition continuity (paper §3.3.1, DESIGN §7, pipeline stage 8).
+// Transition continuity (paper §3.3.1, docs/design.md §7, pipeline stage 8).
 #pragma once
 
 #include <vector>
@@ -16,7 +16,7 @@ namespace trilevel {
 /// edge the level-2 side sees as uncrossed, and the crossing on a crossed edge lies on the sub-edge
 /// whose ends differ for both sides alike, as both read the same midpoint value.
 ///
-/// Beyond the paper (§3.3.1 interpolates every level-3 point on such faces and edges, DESIGN §7):
+/// Beyond the paper (§3.3.1 interpolates every level-3 point on such faces and edges, docs/design.md §7):
 /// crossed edges keep the field's midpoint value, so their vertex lands where the uniform cell-r
 /// mesh puts it, as host/edge_refinement.hpp does for the other level-2 edges, and the centres of
 /// level-2 squares (two odd coordinates) keep theirs too; the crack stitcher closes the faces for

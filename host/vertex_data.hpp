@@ -1,7 +1,7 @@
-// Per-vertex data of the output mesh, computed after triangulation (DESIGN §2 stage 11): normals
+// Per-vertex data of the output mesh, computed after triangulation (docs/design.md §2 stage 11): normals
 // (Params::normals) and particle attributes interpolated at the vertices. Both run on the host
 // over the finished mesh with one particle grid: the mesh is on the host already, and the cost is
-// a few neighbour sums per vertex, small beside the pipeline (README, "Normals and attributes").
+// a few neighbour sums per vertex, small beside the pipeline (docs/operations.md, "Normals and attributes").
 // Every vertex is computed on its own with sums in a fixed order, so the output is bit-identical
 // for any thread count.
 #pragma once
@@ -26,7 +26,7 @@ reference::ParticleGrid vertex_particle_grid(const float* xyz, std::size_t count
 /// counter-clockwise from outside. Zero for a vertex whose triangles all have zero area.
 std::vector<float> area_weighted_normals(const Mesh& mesh);
 
-/// Field normals: n = grad phi / |grad phi| at each vertex, phi the Solenthaler field (DESIGN
+/// Field normals: n = grad phi / |grad phi| at each vertex, phi the Solenthaler field (docs/design.md
 /// §3.3; inside the fluid phi < 0, so the gradient points outward), in double precision by
 /// central differences (phi(v + h e_c) - phi(v - h e_c)) / 2h with h = kGradientStep * r. phi
 /// has no practical closed-form gradient: its radius factor depends on the largest eigenvalue of

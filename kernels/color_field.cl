@@ -1,4 +1,4 @@
-// Stage 2 (DESIGN §3.1, Müller et al. 2003): colour field gradient per particle with poly6
+// Stage 2 (docs/design.md §3.1, Müller et al. 2003): colour field gradient per particle with poly6
 // weights -> surface particles and normals; fewer than SPLASH_NEIGHBOURS neighbours -> splash.
 // Runs over the binned (sorted) particles; outputs are in sorted order. Gradients are packed xyz
 // triples (3 floats a particle, not a float4): at 17.7 M particles the array is the largest one

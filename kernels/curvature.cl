@@ -1,6 +1,6 @@
-// Stage 4 (paper eq. 1-3, DESIGN §3.2): curvature per surface particle, its mean per coarse cell
+// Stage 4 (paper eq. 1-3, docs/design.md §3.2): curvature per surface particle, its mean per coarse cell
 // and the level of each cell. Cell sums use 64-bit fixed-point atomics so the mean does not depend
-// on the order in which work-items add (DESIGN §6).
+// on the order in which work-items add (docs/design.md §6).
 
 // Uses: contract.h (KAPPA_FIXED, FLAG_SURFACE), hash_table.cl, particle_binning.cl, surface_cells.cl (coarse_of).
 
@@ -88,7 +88,7 @@ inline float curvature_global(uint i, __global const float* sorted, __global con
 
 // Paper eq. 3: adds surface particle i's kappa to the sum and count of the coarse cell it lies in,
 // and to the cell's largest kappa (as float bits: non-negative floats order like their bits).
-// Fixed-point sums do not depend on the order of the adds (DESIGN §6).
+// Fixed-point sums do not depend on the order of the adds (docs/design.md §6).
 inline void add_to_cell(float3 x, float kap, float inv_coarse, __global const ulong* cell_keys, ulong cell_capacity,
                         volatile __global ulong* kappa_sum, volatile __global uint* kappa_count,
                         volatile __global uint* kappa_max) {
@@ -208,7 +208,7 @@ __kernel void cell_blocks(__global const uint* cells, uint count, __global const
 }
 
 // Paper eq. 3 per coarse cell. A cell without surface particles takes the largest curvature found
-// in its 26 neighbours (DESIGN §3.2).
+// in its 26 neighbours (docs/design.md §3.2).
 __kernel void cell_curvature(__global const uint* cells, uint count, __global const uint* block,
                              __global const ulong* kappa_sum, __global const uint* kappa_count,
                              __global const uint* kappa_max, __global float* cell_kappa) {
@@ -228,7 +228,7 @@ __kernel void cell_curvature(__global const uint* cells, uint count, __global co
 }
 
 // One smoothing pass (beyond the paper): the mean of `in` over the surface cells of the 3x3x3 block
-// around each cell, summed in z, y, x order (DESIGN §6). constants::kCurvatureSmoothingPasses passes
+// around each cell, summed in z, y, x order (docs/design.md §6). constants::kCurvatureSmoothingPasses passes
 // keep level regions compact on noisy curvature: fewer transition faces, fewer crack patches.
 __kernel void smooth_cell_curvature(__global const uint* cells, uint count, __global const uint* block,
                                     __global const float* in, __global float* out) {

@@ -1,4 +1,4 @@
-// Lock-free open-addressing hash of 64-bit keys (DESIGN §5): any capacity that is a multiple of
+// Lock-free open-addressing hash of 64-bit keys (docs/design.md §5): any capacity that is a multiple of
 // 8 (so a table need not round up to a power of two: the fine-point table is most of the peak
 // memory), linear probing, insert-only, empty slot = all ones. Keys are lattice points or cells packed 20 bits
 // per axis (host/lattice.hpp). A probe longer than the capacity reports overflow (-1); the host
@@ -18,7 +18,7 @@
 // the 27 points of a level-2 cell are 8 lines of the fine-point table, and a level-3 cell's 125
 // about 35, instead of one random line each. Particle bins, counting-sort buckets in slot order,
 // come out spatially grouped. Blocks of 4x4x4 made probe runs 7x longer for no gain. Results
-// never depend on slots, only on keys (DESIGN §6).
+// never depend on slots, only on keys (docs/design.md §6).
 #define LOWEST_BITS (1UL | (1UL << AXIS_BITS) | (1UL << (2 * AXIS_BITS)))
 inline ulong trilevel_hash(ulong k) {
     const int even = (k & LOWEST_BITS) == 0;

@@ -1,9 +1,9 @@
-// Stage 1 (DESIGN §2): bin particles into a sparse grid of cell R by a stable counting sort.
+// Stage 1 (docs/design.md §2): bin particles into a sparse grid of cell R by a stable counting sort.
 // Positions are relative to the lattice origin (the host subtracts it in double precision), so
 // cells are floor(p / cell) and far-from-origin scenes keep float precision.
 // Occupied cells are keys in the lock-free hash; their slots serve as counting-sort buckets:
 // count -> (host) exclusive scan -> scatter -> sort each bucket by particle index, so every
-// neighbour sum later runs in the same order whatever the thread count (DESIGN §6).
+// neighbour sum later runs in the same order whatever the thread count (docs/design.md §6).
 // Uses: contract.h (MAX_BINS), hash_table.cl (keys, hash_find); MAX_CANDIDATES and SERIAL_GATHER are build options.
 
 inline int3 cell_of(float3 p, float inv_cell) {

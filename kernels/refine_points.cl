@@ -1,4 +1,4 @@
-// Stage 5 (paper §3.2, eq. 4-6 made sparse; DESIGN §5): every coarse surface cell inserts its fine
+// Stage 5 (paper §3.2, eq. 4-6 made sparse; docs/design.md §5): every coarse surface cell inserts its fine
 // lattice points into the lock-free hash: (n/2+1)^3 for level 2 (27 when n = 4), (n+1)^3 for
 // level 3 (125). A point shared by several cells is stored once; its value slot starts as NaN,
 // which marks it as not yet evaluated.

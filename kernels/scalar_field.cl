@@ -1,4 +1,4 @@
-// Stage 6 (DESIGN §3.3; Solenthaler, Schläfli, Pajarola 2007 after Zhu & Bridson 2005): the signed
+// Stage 6 (docs/design.md §3.3; Solenthaler, Schläfli, Pajarola 2007 after Zhu & Bridson 2005): the signed
 // distance phi at every pending fine lattice point. Inside the fluid where phi < 0.
 //   k_j = (1 - s_j^2)^3, s_j = |x - x_j| / R;  xbar = sum k_j x_j / K;
 //   phi = |x - xbar| - r f(EVmax), EVmax = largest real part of the eigenvalues of J = d xbar / dx.
@@ -12,7 +12,8 @@
 // polynomial l^3 - t l^2 + m l - d (t: trace, m: sum of principal 2x2 minors, d: determinant),
 // solved in closed form: three real roots by the trigonometric method, else one real root and a
 // complex pair whose real part is -t1/2 in the depressed variable. Tested against QR iterations
-// in src/reference (tests/test_kernels_vs_reference.cpp).
+// in src/reference (through the field in tests/test_device_stages.cpp; the host copy in
+// tests/test_vertex_data.cpp).
 inline float largest_real_eigenvalue(float3 a, float3 b, float3 c) {
     float t = a.x + b.y + c.z;
     float m = (a.x * b.y - a.y * b.x) + (a.x * c.z - a.z * c.x) + (b.y * c.z - b.z * c.y);

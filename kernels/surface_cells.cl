@@ -1,7 +1,7 @@
-// Stage 3 (paper §3, DESIGN §2): the sparse set of coarse surface cells. Every surface or splash
+// Stage 3 (paper §3, docs/design.md §2): the sparse set of coarse surface cells. Every surface or splash
 // particle marks the coarse cells overlapping the box x ± half (the paper's AABB of 4r around a
 // surface particle); cells within R of a splash particle become splash cells (forced level 3).
-// Coarse cells are keys in a hash, never a dense box (DESIGN §4).
+// Coarse cells are keys in a hash, never a dense box (docs/design.md §4).
 
 // Uses: contract.h (CELL_SPLASH, FLAG_*), hash_table.cl.
 

@@ -1,4 +1,4 @@
-// Device buffers kept across frames (issue 6: "kernels and buffers are reused across frames").
+// Device buffers kept across frames (docs/design.md §4 and §9: buffers and kernels reused across frames).
 // OpenCLRuntime::buffer lends buffers from a BufferPool keyed by role ("particle order", "fine
 // point hash", ...); a DeviceBuffer gives its buffer back to the pool when it is destroyed, and the
 // next request of the same role takes it again when it is large enough. A buffer's content is

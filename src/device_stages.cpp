@@ -68,12 +68,12 @@ std::size_t capacity_for(std::size_t keys, double load) {
     return std::size_t(double(keys) / load) + 1;
 }
 
-/// The capacity a table that must grow gets: twice its own, or `load` (DESIGN §5: 1/2) for what it took.
+/// The capacity a table that must grow gets: twice its own, or `load` (docs/design.md §5: 1/2) for what it took.
 std::size_t grown_capacity(const DeviceHash& h, const HashCounters& c, double load = 0.5) {
     return std::max(h.capacity * 2, capacity_for(c.inserted, load));
 }
 
-/// Runs `insert` into a fresh table until it fits at load factor <= 0.5 (DESIGN §5); `exact` as
+/// Runs `insert` into a fresh table until it fits at load factor <= 0.5 (docs/design.md §5); `exact` as
 /// in make_hash.
 template <class Insert>
 DeviceHash insert_growing(OpenCLRuntime& rt, std::size_t capacity, const char* what, bool exact, Insert insert) {

@@ -1,4 +1,4 @@
-// The OpenCL stages of the pipeline (DESIGN §2, stages 1-6), each a function from buffers to
+// The OpenCL stages of the pipeline (docs/design.md §2: stages 1-6 and 8b), each a function from buffers to
 // buffers. Particle positions are relative to the lattice origin. Buffers come from the runtime's
 // pool (buffer_pool.hpp) and go back to it when these structs are destroyed. The tests compare each stage
 // with its plain C++ reference in src/reference/.
@@ -17,7 +17,8 @@
 
 namespace trilevel {
 
-/// A lock-free hash on the device: keys, an optional parallel value array, and its counters.
+/// A lock-free hash on the device: its keys and its counters (values, where a table has them,
+/// are a parallel array its owner keeps, e.g. FinePoints::values).
 struct DeviceHash {
     DeviceBuffer keys;
     DeviceBuffer stats;  ///< int[2]: overflow flag, keys inserted
@@ -74,7 +75,7 @@ struct FinePoints {
     /// The table is sized to load kTargetLoad of what it must hold and grows only when it would
     /// hold more than kMaxLoad of its slots. The headroom between the two takes the points that the
     /// later passes add (band closure, edge midpoints) without a rehash, which holds both tables at
-    /// once. Beyond DESIGN §5 (load <= 0.5): this table is the largest device allocation, and at
+    /// once. Beyond docs/design.md §5 (load <= 0.5): this table is the largest device allocation, and at
     /// x64 load 0.7 instead of 0.5 took 21 MB off the peak (207 -> 186 MB) at the same stage times
     /// (7 interleaved runs); 0.8 saved 7 MB more but the host lookups of triangulation ran 15%
     /// slower. The other tables keep load 0.5.

@@ -1,5 +1,5 @@
-// On-disk cache of compiled OpenCL program binaries (issue 4: "compiled program binaries cached on
-// disk so a CLI start does not recompile the kernels").
+// On-disk cache of compiled OpenCL program binaries, so that a CLI start
+// does not compile the kernels again.
 //
 // Why our own cache when drivers keep theirs: PoCL's kernel cache is found by hashing the
 // *preprocessed* source, so every start still runs clang's preprocessor over all kernels (db23:

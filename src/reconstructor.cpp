@@ -1,5 +1,6 @@
-// Pipeline orchestration (DESIGN §2): device stages 1-6, then band closure, transition continuity,
-// triangulation and crack closing on the host. Each stage is timed on its own.
+// Pipeline orchestration (docs/design.md §2): device stages 1-6, then band closure, transition
+// continuity and the edge refinement (on the device), triangulation and crack closing on
+// the host. Each stage is timed on its own.
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
@@ -98,7 +99,7 @@ void validate(const Params& p) {
                     " bytes cannot hold even the smallest buffers; give at least 4 KiB (0: the device's and host's memory)");
 }
 
-/// Checks of the radius against the particles themselves (DESIGN §4: clear errors, no garbage):
+/// Checks of the radius against the particles themselves (docs/design.md §4: clear errors, no garbage):
 /// float32 coordinates must resolve the radius, and the kernel radius must stay in float range.
 void validate_against(const Params& p, const Bounds& b) {
     const float far = float(b.max_abs);
@@ -245,7 +246,7 @@ std::size_t promote_failing_cells(OpenCLRuntime& rt, FinePoints& points, FinePoi
     return promoted.size();
 }
 
-/// Stages 5-8 until the band is closed (DESIGN §7): refine and evaluate the new cells, apply
+/// Stages 5-8 until the band is closed (docs/design.md §7): refine and evaluate the new cells, apply
 /// transition continuity, find the faces the surface leaves through, add those neighbours and
 /// repeat. Returns a view of the mapped fine-point table; `cells` gains the added cells.
 FinePointMap close_band(OpenCLRuntime& rt, FinePoints& points, std::vector<CoarseCell>& cells,
@@ -410,7 +411,7 @@ std::uint64_t host_budget(const Params& p) {
     return avail;  // 0: unknown, no check
 }
 
-/// Fails before a large host allocation that would not fit the budget (DESIGN §4).
+/// Fails before a large host allocation that would not fit the budget (docs/design.md §4).
 void check_host(double bytes, double budget, const std::string& what) {
     if (budget > 0 && bytes > budget)
         throw Error(what + " needs ~" + io::byte_size_text(std::uint64_t(bytes)) + " of host memory, over the budget of " +
@@ -567,7 +568,7 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
     if (!history.empty() && !same_levels_frame(history_params, p)) history.reset();
     if (g.forced_level == 0)
         s.level_held = history.apply(sc.cells, sc.curvature, sc.splash, g.coarse_base, threshold, p.level_hysteresis);
-    classes = ParticleClasses{};  // memory follows the surface from here on (DESIGN §4)
+    classes = ParticleClasses{};  // memory follows the surface from here on (docs/design.md §4)
     timer.stage("surface_cells");
 
     std::vector<CoarseCell> cells = sc.cells;

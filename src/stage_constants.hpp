@@ -1,10 +1,10 @@
-// Constants and formulas shared by the OpenCL stages and their C++ references (DESIGN §3).
+// Constants and formulas shared by the OpenCL stages and their C++ references (docs/design.md §3).
 // The kernels receive these values as build options; change them here only.
 #pragma once
 
 namespace trilevel::constants {
 
-/// Surface particle test (DESIGN §3.1): |n_i| * R > kSurfaceGradient, with n_i the colour-field
+/// Surface particle test (docs/design.md §3.1): |n_i| * R > kSurfaceGradient, with n_i the colour-field
 /// gradient with poly6 weights and particle volume V = (2r)^3. Calibrated on jittered lattice
 /// blocks (tests/test_reference_stages.cpp, "[calibration]"): every particle within one spacing of a
 /// face is surface, none deeper than R is. Measured |n_i| R with R = 4r, jitter 2% of the spacing:
@@ -37,7 +37,7 @@ constexpr float kSurfaceBoxHalf = 2.0f;
 /// First capacity of the coarse cell hash, per surface or splash particle. Large frames have 0.25-0.31
 /// coarse cells per surface particle (the dam break resampled x8 to x512), so at 3/4 their table
 /// starts at load <= 1/2 and is filled once; small splashy scenes (0.4-8 cells per particle) grow it
-/// (DESIGN §5). Twice the particle count, as before, left x512's table at load 0.15, and every
+/// (docs/design.md §5). Twice the particle count, as before, left x512's table at load 0.15, and every
 /// per-cell buffer of stage 4 and every host read of them is as long as the table.
 constexpr float kCoarseCellsPerSurfaceParticle = 0.75f;
 
@@ -60,7 +60,7 @@ constexpr float kSplashBoxHalf = 2.0f;
 /// threshold); three (an effective 7x7x7 tent) made them compact. Measured against one pass, at the
 /// default threshold: crack patches on x8 1.45% -> 0.85% of all triangles, x64 2.2% -> 1.5%, db23
 /// 1.56% -> 1.37%; triangles x8 +2.6%, db23 -1%, x64 -2%; p99 deviation from the uniform r mesh x8
-/// 0.37 -> 0.30 r, db23 and x64 unchanged (README, "Levels and choosing the threshold").
+/// 0.37 -> 0.30 r, db23 and x64 unchanged (docs/calibration.md, "Levels and choosing the threshold").
 constexpr int kCurvatureSmoothingPasses = 3;
 static_assert(kCurvatureSmoothingPasses >= 1, "the last pass writes the cell curvature the levels read");
 
@@ -77,10 +77,10 @@ constexpr double kMeshBytesPerFinePoint = 40.0;
 /// (triangles 0.384 -> 0.435 of uniform r). Disordered (resampled) flat water sits at curvature
 /// about 4 (x8: median 4.2), so there the check still decides. Measured with the check at 0.3 r
 /// and threshold 16: x8 0.399 both ways (p99 0.42 r), frame 23 0.435 everywhere, 0.389 with this
-/// gate (README, "Levels and choosing the threshold").
+/// gate (docs/calibration.md, "Levels and choosing the threshold").
 constexpr float kLevel2CheckCurvature = 3.0f;
 
-/// Calibrated default of the curvature threshold (README, "Levels and choosing the threshold"),
+/// Calibrated default of the curvature threshold (docs/calibration.md, "Levels and choosing the threshold"),
 /// with the level-2 check on at its default tolerance (Params::level2_tolerance, 0.32 r): cells above
 /// it are level 3 outright, cells from kLevel2CheckCurvature to it are checked. The check measures
 /// the lattice error itself, so the threshold only sends clearly curved cells ahead: x8 resampling
@@ -95,11 +95,11 @@ constexpr float kDefaultCurvatureThreshold = 8.0f;
 /// those 27 bins instead of 4-5 per axis, and a point shared by cells gets the same bits from each.
 constexpr float kSupportCut = 1.0f / 512.0f;
 
-/// Solenthaler et al. 2007 eigenvalue thresholds (DESIGN §3.3).
+/// Solenthaler et al. 2007 eigenvalue thresholds (docs/design.md §3.3).
 constexpr float kEvLow = 0.4f;
 constexpr float kEvHigh = 3.5f;
 
-/// Coarse cell edge in particle radii (DESIGN §2).
+/// Coarse cell edge in particle radii (docs/design.md §2).
 constexpr float kCoarseCell = 4.0f;
 
 }  // namespace trilevel::constants

@@ -1,4 +1,4 @@
-// Statistics as JSON (README "Statistics"; DESIGN §10).
+// Statistics as JSON (docs/operations.md "Statistics"; docs/design.md §10).
 #include <nlohmann/json.hpp>
 
 #include "trilevel/trilevel.hpp"

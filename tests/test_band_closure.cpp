@@ -1,4 +1,4 @@
-// Band closure and transition continuity (DESIGN §7) ([mesh]).
+// Band closure and transition continuity (docs/design.md §7) ([mesh]).
 #include <algorithm>
 #include <cmath>
 #include <random>

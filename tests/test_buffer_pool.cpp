@@ -1,4 +1,4 @@
-// The device buffer pool (issue 6, item 1: buffers reused across frames): what it lends again,
+// The device buffer pool (buffers reused across frames): what it lends again,
 // how it grows, trims and releases, the budget on what is lent at once, and that reused buffers
 // give the meshes of fresh ones.
 #include <algorithm>

@@ -155,7 +155,7 @@ TEST_CASE("CLI: two runs write bit-identical mesh files", "[cli][determinism]") 
         const std::string a = slurp(tmp.file("a.ply")), b = slurp(tmp.file("b.ply"));
         REQUIRE(a.size() > 1000);
         REQUIRE(a == b);
-        // One thread for the host stages and PoCL: other chunks per thread, the same bits (DESIGN §6).
+        // One thread for the host stages and PoCL: other chunks per thread, the same bits (docs/design.md §6).
         REQUIRE(run_cli(tmp, "reconstruct '" + tmp.file("p.xyz") + "' -r 0.025 " + mode + " -q --threads 1 -o '" +
                                  tmp.file("c.ply") + "' --stats '" + tmp.file("c.json") + "'")
                     .code == 0);

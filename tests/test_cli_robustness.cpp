@@ -1,4 +1,4 @@
-// The CLI under failure (issue 5): absurd parameters and OpenCL failures are one stderr line, a
+// The CLI under failure: absurd parameters and OpenCL failures are one stderr line, a
 // non-zero exit and no output; a process killed while writing leaves the previous output intact
 // and no partial file.
 #include <chrono>

@@ -1,4 +1,4 @@
-// Adaptive property test of DESIGN §7: random fields on blocks mixing level-2 and level-3 cells
+// Adaptive property test of docs/design.md §7: random fields on blocks mixing level-2 and level-3 cells
 // give closed, oriented meshes whose patch triangles lie on transition faces ([mesh]).
 #include <algorithm>
 #include <cmath>

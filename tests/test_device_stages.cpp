@@ -1,4 +1,4 @@
-// Every OpenCL stage against its plain C++ reference on the same input (DESIGN §8), and the
+// Every OpenCL stage against its plain C++ reference on the same input (docs/design.md §8), and the
 // lock-free hash under heavy duplication.
 #include <algorithm>
 #include <cmath>
@@ -577,7 +577,7 @@ TEST_CASE("32-bit and 64-bit fine-point keys hold the same points with the same 
     }
     REQUIRE(inserted[0] == inserted[1]);
     REQUIRE(maps[0].capacity() == maps[1].capacity());
-    // Slots depend on which concurrent insert wins a probe run (results never do: DESIGN §6), so
+    // Slots depend on which concurrent insert wins a probe run (results never do: docs/design.md §6), so
     // the tables are compared point by point.
     std::size_t held = 0, differ = 0;
     for (std::size_t s = 0; s < maps[0].capacity(); ++s) {

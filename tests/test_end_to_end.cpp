@@ -182,7 +182,7 @@ TEST_CASE("bad input to the library is a clear error", "[e2e][errors]") {
 TEST_CASE("levels end to end: a 6r droplet is level 3, a resting pool level 2, isolated particles level 3", "[e2e][levels]") {
     const float r = 0.025f;
     auto& rec = shared_reconstructor();
-    // A ball of radius 6r on the 2r lattice (DESIGN §3.2: curvature ~0.5-1 there, a flat face < 0.01).
+    // A ball of radius 6r on the 2r lattice (docs/design.md §3.2: curvature ~0.5-1 there, a flat face < 0.01).
     std::vector<float> ball;
     for (int k = -3; k <= 3; ++k)
         for (int j = -3; j <= 3; ++j)

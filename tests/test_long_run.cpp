@@ -1,5 +1,5 @@
-// Long runs (issue 5, item 7): one Reconstructor reused for 200 frames keeps its memory, and its
-// buffer pool (issue 6) stops growing once the sequence has shown every size; two Reconstructors
+// Long runs: one Reconstructor reused for 200 frames keeps its memory, and its
+// buffer pool stops growing once the sequence has shown every size; two Reconstructors
 // in two threads give the single-threaded meshes. Run alone with `ctest -R "long run"` or `trilevel_tests "[long]"`.
 #include <chrono>
 #include <cmath>

@@ -114,7 +114,7 @@ TEST_CASE("marching-cubes table: all 256 cases close up with their face segments
 }
 
 TEST_CASE("marching-cubes table: no triangle edge is a chord between two segments of one face", "[mesh]") {
-    // Such a chord could be picked by the neighbour across an ambiguous face as well (DESIGN §7).
+    // Such a chord could be picked by the neighbour across an ambiguous face as well (docs/design.md §7).
     for (unsigned c = 0; c < 256; ++c) {
         const EdgeSet segments = case_segments(c);
         const mc::CubeCase& cc = mc::case_table()[c];

@@ -1,6 +1,6 @@
 // Tests of the C++ reference stages (src/reference), which the OpenCL kernels are compared against
-// (DESIGN §8). Also the calibration of kSurfaceGradient (DESIGN §3.1) and the curvature scale
-// (DESIGN §3.2): run `trilevel_tests "[calibration]"` to print the measured distributions.
+// (docs/design.md §8). Also the calibration of kSurfaceGradient (docs/design.md §3.1) and the curvature scale
+// (docs/design.md §3.2): run `trilevel_tests "[calibration]"` to print the measured distributions.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -24,7 +24,7 @@ using trilevel::constants::kSurfaceGradient;
 namespace {
 
 constexpr float kR = 0.025f;        // particle radius used throughout
-constexpr float kSupport = 4 * kR;  // R = 4r (DESIGN §2 default)
+constexpr float kSupport = 4 * kR;  // R = 4r (docs/design.md §2 default)
 
 // ---- particle sets -----------------------------------------------------------------------------
 
@@ -121,7 +121,7 @@ M3 similar(const M3& B, std::mt19937& rng) {
 
 }  // namespace
 
-// ---- eigenvalues (DESIGN §3.3: the reference must not share the kernel's closed-form cubic) ----
+// ---- eigenvalues (docs/design.md §3.3: the reference must not share the kernel's closed-form cubic) ----
 
 TEST_CASE("largest real eigenvalue of matrices with known spectra", "[reference]") {
     SECTION("diagonal and triangular") {
@@ -179,7 +179,7 @@ TEST_CASE("largest real eigenvalue of matrices with known spectra", "[reference]
     }
 }
 
-// ---- scalar field (DESIGN §3.3) ----------------------------------------------------------------
+// ---- scalar field (docs/design.md §3.3) ----------------------------------------------------------------
 
 TEST_CASE("scalar field of one isolated particle is the sphere of radius r", "[reference]") {
     const glm::vec3 c(1.0f, -2.0f, 0.5f);
@@ -225,7 +225,7 @@ TEST_CASE("scalar field zero crossing above a flat lattice face", "[reference]")
     const float z_column = zero_crossing_up(grid, column, column, top - kR, top + kSupport);
     INFO("zero crossing above the top centres, in r: between columns " << (z_between - top) / kR << ", above a column "
                                                                        << (z_column - top) / kR);
-    // Target (DESIGN §3.3 via the brief): within 0.25 r of where the particles end, top + r.
+    // Target (docs/design.md §3.3): within 0.25 r of where the particles end, top + r.
     CHECK(std::abs(z_between - (top + kR)) < 0.25f * kR);
     CHECK(std::abs(z_column - (top + kR)) < 0.25f * kR);
 }
@@ -261,7 +261,7 @@ std::vector<float> sphere_surface_kappa(float radius_in_r) {
 
 }  // namespace
 
-// ---- surface and splash particles (DESIGN §3.1) -----------------------------------------------
+// ---- surface and splash particles (docs/design.md §3.1) -----------------------------------------------
 
 TEST_CASE("surface particles of a jittered lattice block, splash particles", "[reference]") {
     // Layer 0 has its centres r below the fluid boundary (within one spacing of the face); layer 2
@@ -306,7 +306,7 @@ TEST_CASE("surface particles of a jittered lattice block, splash particles", "[r
     }
 }
 
-// ---- curvature (paper eq. 1-2, DESIGN §3.2) ----------------------------------------------------
+// ---- curvature (paper eq. 1-2, docs/design.md §3.2) ----------------------------------------------------
 
 TEST_CASE("curvature is small on a flat face and large on a small sphere", "[reference]") {
     const Block b = lattice_block({20, 20, 8}, glm::vec3(0.0f), 0.02f, 5);
@@ -324,7 +324,7 @@ TEST_CASE("curvature is small on a flat face and large on a small sphere", "[ref
     CHECK(s12.median > 0.05f);   // measured 0.15
 }
 
-// ---- coarse surface cells and levels (paper §3, §3.1, DESIGN §3.2, §4) --------------------------
+// ---- coarse surface cells and levels (paper §3, §3.1, docs/design.md §3.2, §4) --------------------------
 
 namespace {
 

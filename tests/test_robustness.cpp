@@ -1,4 +1,4 @@
-// Robustness (issue 5): absurd parameters are one-line errors naming the parameter, extreme but
+// Robustness: absurd parameters are one-line errors naming the parameter, extreme but
 // legal particle sets give closed meshes in bounded time, domains too wide for one lattice are
 // split, OpenCL failures name the stage and leave the Reconstructor usable.
 #include <chrono>

@@ -131,7 +131,7 @@ TEST_CASE("gradient normals agree with the mesh's area-weighted normals on every
         require_unit(m.normals);
         // Measured: 99.8% or more on the generated scenes and the ../shared/data frames; the rest
         // sit in thin gaps and saddles where the field's gradient is weak and the mesh only
-        // approximates its zero set (README, "Normals and attributes").
+        // approximates its zero set (docs/operations.md, "Normals and attributes").
         CHECK(agreeing(m.normals, area_weighted_normals(m)) > 0.995);
     }
 }

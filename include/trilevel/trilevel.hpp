@@ -41,12 +41,12 @@ enum class Mode {
 /// Per-vertex normals of the output mesh (Mesh::normals).
 enum class NormalMode {
     None,      ///< no normals (Mesh::normals stays empty)
-    Gradient,  ///< grad(phi)/|grad(phi)| of the scalar field (DESIGN §3.3) at the vertex: the normal
+    Gradient,  ///< grad(phi)/|grad(phi)| of the scalar field (docs/design.md §3.3) at the vertex: the normal
                ///< of the smooth surface the mesh approximates
     Area,      ///< sum of the adjacent triangles' normals weighted by their area: the mesh's own shading normal
 };
 
-/// How the cracks between level-2 and level-3 cells are closed (DESIGN §7, docs/design.md).
+/// How the cracks between level-2 and level-3 cells are closed (docs/design.md §7).
 enum class CrackClosing {
     Collapse,  ///< patches, then each inner crossing of a transition face merged into the level-2
                ///< crossing beside it where that keeps the mesh closed and unfolded: two triangles
@@ -65,7 +65,7 @@ struct Box {
 /// positions (input and output) are in world units.
 struct Params {
     float particle_radius = 0.0f;      ///< r, in world units (half the rest spacing); required, > 0
-    float kernel_radius = 4.0f;        ///< R, support of the SPH kernels, in r (DESIGN §2)
+    float kernel_radius = 4.0f;        ///< R, support of the SPH kernels, in r (docs/design.md §2)
     Mode mode = Mode::Adaptive;        ///< see Mode
     float cell = 1.0f;                 ///< uniform mode: marching-cubes cell size in r; 4/cell must be an integer
     float curvature_threshold = 0.0f;  ///< adaptive mode: mean cell curvature (paper eq. 3) at which a
@@ -75,7 +75,7 @@ struct Params {
                                        ///< cell whose curvature is not clearly flat (>= 3) becomes level 3 where
                                        ///< the field at the centre of one of its crossed cubes of 2r differs from
                                        ///< the trilinear value by more than this many r; 0 = off (then curvature
-                                       ///< alone decides: README, "Levels and choosing the threshold")
+                                       ///< alone decides: docs/calibration.md, "Levels and choosing the threshold")
     std::uint64_t memory_limit_bytes = 0;  ///< bytes; budget for the largest allocations; 0: device and host limits
     float level_hysteresis = 0.0f;     ///< adaptive mode, frame sequences: a coarse cell keeps its level of the
                                        ///< previous frame until its curvature passes the threshold by this
@@ -85,7 +85,7 @@ struct Params {
                                        ///< 1 + h for one that was level 2). In [0, 1), 0 = off (each call
                                        ///< independent of the previous). The CLI uses 0.2 for sequences: on the
                                        ///< generated falling-drop it removes 81% of the level changes with
-                                       ///< curvature alone, 58% with the default levels (README).
+                                       ///< curvature alone, 58% with the default levels (docs/calibration.md, "Temporal coherence").
     NormalMode normals = NormalMode::None; ///< per-vertex normals to compute (Mesh::normals)
     CrackClosing crack_closing = CrackClosing::Collapse;  ///< adaptive mode: see CrackClosing
     /// Particles outside this box (world units, bounds inclusive) are ignored, with their
@@ -135,7 +135,7 @@ struct Attribute {
 using ParticleAttribute = Attribute;  ///< values per particle, in particle order
 using VertexAttribute = Attribute;    ///< values per mesh vertex, in vertex order
 
-/// Calibrated default of Params::curvature_threshold (dimensionless; README, "Choosing the threshold").
+/// Calibrated default of Params::curvature_threshold (dimensionless; docs/calibration.md, "Levels and choosing the threshold").
 float default_curvature_threshold();
 
 /// Kind of a triangle in an adaptive mesh (paper Table 1: level-2, level-3 and patch triangles).
@@ -156,18 +156,18 @@ struct Mesh {
     std::size_t triangle_count() const { return triangles.size() / 3; }
 };
 
-/// What one reconstruction did and cost (DESIGN §10). Counts unless stated; cells are coarse cells
+/// What one reconstruction did and cost (docs/design.md §10). Counts unless stated; cells are coarse cells
 /// of 4r, the "level" of a cell is the lattice it is meshed on (2: step 2r, 3: step r).
 struct Stats {
     std::size_t particles = 0;              ///< input particles
-    std::size_t surface_particles = 0;      ///< particles near the surface (colour-field gradient, DESIGN §3.1)
+    std::size_t surface_particles = 0;      ///< particles near the surface (colour-field gradient, docs/design.md §3.1)
     std::size_t splash_particles = 0;       ///< particles with fewer than 3 neighbours within R
     std::size_t surface_cells = 0;          ///< coarse cells after band closure
     std::size_t surface_cells_level2 = 0;   ///< of those, cells meshed on the 2r lattice
     std::size_t surface_cells_level3 = 0;   ///< of those, cells meshed on the r lattice
     std::size_t splash_cells = 0;           ///< cells forced to level 3 by a nearby splash or thin particle
-    std::size_t band_closure_cells = 0;     ///< coarse cells added by band closure (DESIGN §7)
-    std::size_t level2_check_cells = 0;     ///< level-2 cells the level-2 check made level 3 (DESIGN §3.2)
+    std::size_t band_closure_cells = 0;     ///< coarse cells added by band closure (docs/design.md §7)
+    std::size_t level2_check_cells = 0;     ///< level-2 cells the level-2 check made level 3 (docs/design.md §3.2)
     std::size_t fine_points = 0;            ///< unique fine lattice points evaluated
     std::size_t fine_points_level2 = 0;     ///< of those, points on the level-2 lattice
     std::size_t fine_points_level3 = 0;     ///< of those, points only on the level-3 lattice
@@ -175,7 +175,7 @@ struct Stats {
     std::size_t triangles = 0;              ///< of the mesh; the sum of the three kinds below
     std::size_t triangles_level2 = 0;       ///< TriangleKind::Level2
     std::size_t triangles_level3 = 0;       ///< TriangleKind::Level3
-    std::size_t triangles_patch = 0;        ///< TriangleKind::Patch (crack closing, DESIGN §7)
+    std::size_t triangles_patch = 0;        ///< TriangleKind::Patch (crack closing, docs/design.md §7)
     std::size_t crack_vertices_collapsed = 0; ///< inner crack crossings merged away (CrackClosing::Collapse)
     std::size_t sliver_edges_collapsed = 0;   ///< needle edges collapsed (Params::sliver_cleanup)
     std::size_t smoothing_reverted_moves = 0; ///< smoothing moves taken back where a triangle would turn over
@@ -208,7 +208,7 @@ struct Stats {
     unsigned host_threads = 0;             ///< threads the host stages could use (the caller's TBB arena)
 };
 
-/// Writes the statistics as a JSON object (keys as in README "Statistics"), with `params` under
+/// Writes the statistics as a JSON object (keys as in docs/operations.md "Statistics"), with `params` under
 /// "parameters" (the curvature threshold actually used).
 std::string stats_to_json(const Stats& stats, const Params& params);
 

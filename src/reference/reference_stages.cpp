@@ -1,4 +1,4 @@
-// Reference implementations of the device stages (DESIGN §2, §3, §8); see reference_stages.hpp.
+// Reference implementations of the device stages (docs/design.md §2, §3, §8); see reference_stages.hpp.
 #include "reference/reference_stages.hpp"
 
 #include <algorithm>

@@ -1,6 +1,6 @@
-// Plain C++ reference implementations of the OpenCL stages 2, 3-4 and 6 (DESIGN §2, §8).
+// Plain C++ reference implementations of the OpenCL stages 2, 3-4 and 6 (docs/design.md §2, §8).
 // The differential tests compare every kernel against these functions on the same input.
-// They follow DESIGN §3 literally, accumulate in double and favour clarity over speed
+// They follow docs/design.md §3 literally, accumulate in double and favour clarity over speed
 // (a simple hash grid of cell R for the neighbour search, TBB over particles / points).
 //
 // Conventions shared with the kernels (all lengths in world units):
@@ -56,7 +56,7 @@ private:
     std::unordered_map<std::uint64_t, std::pair<std::uint32_t, std::uint32_t>> ranges_;
 };
 
-// ---- Stage 2: colour field, surface and splash particles (DESIGN §3.1) -------------------------
+// ---- Stage 2: colour field, surface and splash particles (docs/design.md §3.1) -------------------------
 
 /// Poly6 kernel W(d) = 315 / (64 pi R^9) (R^2 - d^2)^3 for d < R, from d^2.
 double poly6(double d2, double R);
@@ -73,16 +73,16 @@ struct ParticleFlags {
 
 ParticleFlags color_field(const std::vector<glm::vec3>& x, float r, float R);
 
-/// Outward unit normal -n / |n| (DESIGN §3.1); the zero vector when n == 0.
+/// Outward unit normal -n / |n| (docs/design.md §3.1); the zero vector when n == 0.
 glm::dvec3 outward_normal(glm::vec3 gradient);
 
-// ---- Stage 4a: curvature per particle (paper eq. 1-2, DESIGN §3.2) -----------------------------
+// ---- Stage 4a: curvature per particle (paper eq. 1-2, docs/design.md §3.2) -----------------------------
 
 /// kappa_i = sum over surface j != i with d < h = R of (1 - n_i . n_j)(1 - d / h) for surface
 /// particles i (splash ones included, their normal may be zero); 0 for the others.
 std::vector<float> curvature(const std::vector<glm::vec3>& x, const ParticleFlags& flags, float R);
 
-// ---- Stages 3 + 4b: coarse surface cells, splash cells, levels (paper §3, §3.1, DESIGN §3.2) ---
+// ---- Stages 3 + 4b: coarse surface cells, splash cells, levels (paper §3, §3.1, docs/design.md §3.2) ---
 
 struct SurfaceCells {
     std::vector<CoarseCell> cells;      ///< sorted by lattice::pack(coord)
@@ -104,7 +104,7 @@ SurfaceCells surface_cells(const std::vector<glm::vec3>& x, const ParticleFlags&
                            const std::vector<float>& kappa, glm::vec3 origin, float r, float R,
                            float threshold, int forced_level = 0);
 
-// ---- Stage 6: scalar field (Solenthaler et al. 2007, DESIGN §3.3) ------------------------------
+// ---- Stage 6: scalar field (Solenthaler et al. 2007, docs/design.md §3.3) ------------------------------
 
 /// Largest real part among the eigenvalues of a real 3x3 matrix (J need not be symmetric).
 /// Method, independent of the kernel's closed-form cubic: Householder reduction to upper
