@@ -18,7 +18,7 @@ file(STRINGS ${WORK_DIR}/CMakeCache.txt tests_flag REGEX "^TRILEVEL_BUILD_TESTS:
 if(NOT tests_flag MATCHES "=OFF$")
   message(FATAL_ERROR "trilevel's tests are on inside another project: ${tests_flag}")
 endif()
-run(${CMAKE_COMMAND} --build ${WORK_DIR} --target simulator_loop)
+run(${CMAKE_COMMAND} --build ${WORK_DIR} --target simulator_loop --parallel 2)
 run(${WORK_DIR}/simulator_loop)
 message("${out}")
 file(REMOVE_RECURSE ${WORK_DIR})
