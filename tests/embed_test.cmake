@@ -1,13 +1,7 @@
 # ctest -R cmake_add_subdirectory: configures tests/embed_test (a simulator project that
 # add_subdirectory()s the trilevel source tree), builds examples/simulator_loop in it and runs it.
 # Arguments (-D): SOURCE_DIR, WORK_DIR, GENERATOR, CXX_COMPILER, BUILD_TYPE, LAUNCHER (optional).
-function(run)
-  execute_process(COMMAND ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE out)
-  if(NOT rc EQUAL 0)
-    message(FATAL_ERROR "failed (${rc}): ${ARGN}\n${out}")
-  endif()
-  set(out "${out}" PARENT_SCOPE)
-endfunction()
+include(${CMAKE_CURRENT_LIST_DIR}/cmake_run.cmake)  # run()
 
 file(REMOVE_RECURSE ${WORK_DIR})
 run(${CMAKE_COMMAND} -S ${SOURCE_DIR}/tests/embed_test -B ${WORK_DIR} -G ${GENERATOR}

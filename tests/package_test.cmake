@@ -2,13 +2,7 @@
 # public headers were installed, then configures, builds and runs examples/simulator_loop out of
 # tree against that prefix, as a simulator project would.
 # Arguments (-D): SOURCE_DIR, BUILD_DIR, WORK_DIR, GENERATOR, CXX_COMPILER, BUILD_TYPE.
-function(run)
-  execute_process(COMMAND ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE out)
-  if(NOT rc EQUAL 0)
-    message(FATAL_ERROR "failed (${rc}): ${ARGN}\n${out}")
-  endif()
-  set(out "${out}" PARENT_SCOPE)
-endfunction()
+include(${CMAKE_CURRENT_LIST_DIR}/cmake_run.cmake)  # run()
 
 set(prefix ${WORK_DIR}/prefix)
 file(REMOVE_RECURSE ${WORK_DIR})
