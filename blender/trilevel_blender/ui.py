@@ -245,14 +245,17 @@ class TRILEVEL_OT_add_surface(bpy.types.Operator):
         return {'FINISHED'}
 
 
-class TRILEVEL_OT_build_frames(bpy.types.Operator):
-    """Build the meshes of every frame of the scene range into the cache (only the frames not cached)"""
-    bl_idname = "trilevel.build_frames"
-    bl_label = "Build All Frames"
-
+class _OnActiveSurface:
+    """Operators on the active object's surface: available when it is a trilevel surface."""
     @classmethod
     def poll(cls, context):
         return context.object is not None and context.object.trilevel.enabled
+
+
+class TRILEVEL_OT_build_frames(_OnActiveSurface, bpy.types.Operator):
+    """Build the meshes of every frame of the scene range into the cache (only the frames not cached)"""
+    bl_idname = "trilevel.build_frames"
+    bl_label = "Build All Frames"
 
     def execute(self, context):
         scene, obj = context.scene, context.object
@@ -273,14 +276,10 @@ class TRILEVEL_OT_build_frames(bpy.types.Operator):
         return {'FINISHED'}
 
 
-class TRILEVEL_OT_clear_cache(bpy.types.Operator):
+class TRILEVEL_OT_clear_cache(_OnActiveSurface, bpy.types.Operator):
     """Forget the cached meshes of the active surface and rebuild the shown frame"""
     bl_idname = "trilevel.clear_cache"
     bl_label = "Rebuild"
-
-    @classmethod
-    def poll(cls, context):
-        return context.object is not None and context.object.trilevel.enabled
 
     def execute(self, context):
         surface.clear_cache(cache_key(context.object))
