@@ -1,65 +1,34 @@
 // Components by vertex index and their removal; see mesh_components.hpp.
 #include "mesh_components.hpp"
 
+#include "mesh_topology.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numeric>
 
 namespace trilevel {
-namespace {
-
-std::uint32_t find(std::vector<std::uint32_t>& parent, std::uint32_t v) {
-    while (parent[v] != v) {
-        parent[v] = parent[parent[v]];
-        v = parent[v];
-    }
-    return v;
-}
-
-}  // namespace
 
 std::vector<std::uint32_t> triangle_components(const Mesh& mesh, std::size_t* count) {
-    const std::size_t nv = mesh.vertex_count(), nt = mesh.triangle_count();
-    std::vector<std::uint32_t> parent(nv);
-    std::iota(parent.begin(), parent.end(), 0u);
-    for (std::size_t t = 0; t < nt; ++t) {
-        const std::uint32_t* tri = &mesh.triangles[3 * t];
-        for (int k = 1; k < 3; ++k) {
-            const std::uint32_t a = find(parent, tri[0]), b = find(parent, tri[k]);
-            if (a != b) parent[std::max(a, b)] = std::min(a, b);
-        }
-    }
+    const MeshComponents c = mesh_components(mesh);  // numbered by smallest vertex
     constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
-    std::vector<std::uint32_t> label(nv, kNone), component(nt);
-    std::uint32_t next = 0;
-    for (std::size_t t = 0; t < nt; ++t) {
-        const std::uint32_t root = find(parent, mesh.triangles[3 * t]);
-        if (label[root] == kNone) label[root] = next++;
-        component[t] = label[root];
+    std::vector<std::uint32_t> label(c.count, kNone), component(mesh.triangle_count());
+    std::uint32_t next = 0;  // renumbered in the order of their first triangle; no triangle, no component
+    for (std::size_t t = 0; t < component.size(); ++t) {
+        std::uint32_t& l = label[c.of_vertex[mesh.triangles[3 * t]]];
+        if (l == kNone) l = next++;
+        component[t] = l;
     }
     if (count) *count = next;
     return component;
 }
 
 std::vector<double> component_volumes(const Mesh& mesh, const std::vector<std::uint32_t>& component, std::size_t count) {
-    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (std::size_t v = 0; v < mesh.vertex_count(); ++v)
-        for (int k = 0; k < 3; ++k) {
-            lo[k] = std::min(lo[k], double(mesh.positions[3 * v + k]));
-            hi[k] = std::max(hi[k], double(mesh.positions[3 * v + k]));
-        }
-    double o[3];
-    for (int k = 0; k < 3; ++k) o[k] = mesh.vertex_count() ? 0.5 * (lo[k] + hi[k]) : 0.0;
+    const MeshComponents c = mesh_components(mesh);
+    const std::vector<double> by_vertex = component_volumes(mesh, c);  // mesh_topology.hpp
     std::vector<double> volume(count, 0.0);
-    for (std::size_t t = 0; t < mesh.triangle_count(); ++t) {
-        double p[3][3];
-        for (int i = 0; i < 3; ++i)
-            for (int k = 0; k < 3; ++k) p[i][k] = double(mesh.positions[3 * mesh.triangles[3 * t + i] + k]) - o[k];
-        volume[component[t]] += (p[0][0] * (p[1][1] * p[2][2] - p[1][2] * p[2][1]) -
-                                 p[0][1] * (p[1][0] * p[2][2] - p[1][2] * p[2][0]) +
-                                 p[0][2] * (p[1][0] * p[2][1] - p[1][1] * p[2][0])) / 6.0;
-    }
+    for (std::size_t t = 0; t < component.size(); ++t) volume[component[t]] = by_vertex[c.of_vertex[mesh.triangles[3 * t]]];
     return volume;
 }
 

@@ -14,9 +14,8 @@ namespace trilevel {
 /// triangle; two triangles are in one component when a chain of shared vertex indices joins them.
 std::vector<std::uint32_t> triangle_components(const Mesh& mesh, std::size_t* count = nullptr);
 
-/// Volume each component encloses by the divergence theorem, sum over its triangles of
-/// det(a, b, c) / 6 (relative to the centre of the mesh's bounding box, in double): positive for
-/// an outward-oriented closed surface, negative for an inner one (a cavity's surface).
+/// Volume each component of `triangle_components` encloses (mesh_topology.hpp's component_volumes:
+/// positive for an outward-oriented closed surface, negative for a cavity's surface).
 std::vector<double> component_volumes(const Mesh& mesh, const std::vector<std::uint32_t>& component, std::size_t count);
 
 /// Removes the components whose |volume| is below `min_volume`; the vertices are compacted (their

@@ -28,20 +28,6 @@ double angle_at(glm::dvec3 a, glm::dvec3 b, glm::dvec3 c) {  // at a
 
 }  // namespace
 
-std::vector<double> component_volumes(const Mesh& mesh, const std::vector<std::uint32_t>& component_of_vertex,
-                                      std::size_t components) {
-    std::vector<double> vol(components, 0.0);
-    std::vector<std::uint32_t> origin(components, std::numeric_limits<std::uint32_t>::max());
-    const auto& t = mesh.triangles;
-    for (std::size_t i = 0; i + 2 < t.size(); i += 3) {
-        const std::uint32_t c = component_of_vertex[t[i]];
-        if (origin[c] == std::numeric_limits<std::uint32_t>::max()) origin[c] = t[i];
-        const glm::dvec3 o = vertex(mesh, origin[c]);
-        vol[c] += glm::dot(vertex(mesh, t[i]) - o, glm::cross(vertex(mesh, t[i + 1]) - o, vertex(mesh, t[i + 2]) - o)) / 6.0;
-    }
-    return vol;
-}
-
 MeshQuality mesh_quality(const Mesh& mesh, double r, std::size_t particles, const AnalyticBody* body) {
     MeshQuality q;
     q.vertices = mesh.vertex_count();
@@ -50,7 +36,7 @@ MeshQuality mesh_quality(const Mesh& mesh, double r, std::size_t particles, cons
     const MeshComponents comp = mesh_components(mesh);
     q.components = comp.count;
     q.euler = euler_characteristics(mesh, comp);
-    for (double v : component_volumes(mesh, comp.of_vertex, comp.count)) q.volume += v;
+    for (double v : component_volumes(mesh, comp)) q.volume += v;
     const double particle_volume = 8.0 * r * r * r;
     q.volume_ratio = particles ? q.volume / (double(particles) * particle_volume) : 0.0;
 

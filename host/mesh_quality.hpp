@@ -33,9 +33,5 @@ struct MeshQuality {
 /// weights (normals at the centroids).
 MeshQuality mesh_quality(const Mesh& mesh, double r, std::size_t particles, const AnalyticBody* body);
 
-/// Signed volume of each component (outward orientation: positive), world units, summed over its
-/// triangles in index order relative to the component's first vertex (exact for a closed component).
-std::vector<double> component_volumes(const Mesh& mesh, const std::vector<std::uint32_t>& component_of_vertex,
-                                      std::size_t components);
 
 }  // namespace trilevel

@@ -188,7 +188,7 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
     if (nv == 0 || settings.iterations <= 0) return report;
     const Rows nbr = vertex_neighbours(mesh), tri = vertex_triangles(mesh);
     const MeshComponents comp = mesh_components(mesh);
-    const std::vector<double> volume0 = component_volumes(mesh, comp.of_vertex, comp.count);
+    const std::vector<double> volume0 = component_volumes(mesh, comp);
     for (double v : volume0) report.volume_before += v;
     std::vector<float> w = weights;  // small components keep their vertices
     for (std::size_t v = 0; v < nv; ++v)
@@ -333,7 +333,7 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
     }
     for (std::size_t v = 0; v < nv; ++v)
         for (int a = 0; a < 3; ++a) mesh.positions[3 * v + a] = float(p[v][a]);
-    for (double v : component_volumes(mesh, comp.of_vertex, comp.count)) report.volume_after += v;
+    for (double v : component_volumes(mesh, comp)) report.volume_after += v;
     return report;
 }
 

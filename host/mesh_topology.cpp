@@ -3,10 +3,12 @@
 
 #include <algorithm>
 #include <atomic>
+#include <limits>
 #include <numeric>
 #include <cstdint>
 #include <vector>
 
+#include <glm/glm.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
@@ -103,6 +105,24 @@ MeshComponents mesh_components(const Mesh& mesh) {
         c.of_vertex[v] = r == v ? std::uint32_t(c.count++) : c.of_vertex[r];  // r <= v: numbered already
     }
     return c;
+}
+
+std::vector<double> component_volumes(const Mesh& mesh, const MeshComponents& components) {
+    // det(a - o, b - o, c - o) / 6 summed over the component's triangles, o its first triangle's
+    // first vertex: a small droplet far from the origin keeps its digits.
+    std::vector<double> vol(components.count, 0.0);
+    std::vector<std::uint32_t> origin(components.count, std::numeric_limits<std::uint32_t>::max());
+    const auto& t = mesh.triangles;
+    auto at = [&](std::uint32_t v) {
+        return glm::dvec3(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]);
+    };
+    for (std::size_t i = 0; i + 2 < t.size(); i += 3) {
+        const std::uint32_t c = components.of_vertex[t[i]];
+        if (origin[c] == std::numeric_limits<std::uint32_t>::max()) origin[c] = t[i];
+        const glm::dvec3 o = at(origin[c]);
+        vol[c] += glm::dot(at(t[i]) - o, glm::cross(at(t[i + 1]) - o, at(t[i + 2]) - o)) / 6.0;
+    }
+    return vol;
 }
 
 std::vector<long long> euler_characteristics(const Mesh& mesh, const MeshComponents& components) {

@@ -34,6 +34,10 @@ struct MeshComponents {
 };
 MeshComponents mesh_components(const Mesh& mesh);
 
+/// Volume each component encloses by the divergence theorem (double): positive for an
+/// outward-oriented closed surface, negative for an inner one (a cavity's surface).
+std::vector<double> component_volumes(const Mesh& mesh, const MeshComponents& components);
+
 /// V - E + F of each component (E: distinct undirected edges); 2 for a sphere, 0 for a torus.
 std::vector<long long> euler_characteristics(const Mesh& mesh, const MeshComponents& components);
 

@@ -101,7 +101,7 @@ TEST_CASE("sliver cleanup and smoothing keep random meshes closed, their compone
         CHECK(m.triangle_kind.size() == m.triangle_count());
         const Mesh before = m;
         const MeshComponents comp = mesh_components(before);
-        const std::vector<double> vol0 = component_volumes(before, comp.of_vertex, comp.count);
+        const std::vector<double> vol0 = component_volumes(before, comp);
         SmoothingSettings settings;
         settings.iterations = kDefaultSmoothIterations;
         settings.min_volume = smooth_min_volume(r);
@@ -115,7 +115,7 @@ TEST_CASE("sliver cleanup and smoothing keep random meshes closed, their compone
             if (a != glm::dvec3(0.0)) turned += glm::dot(a, face_normal(m, t)) <= 0.0;
         }
         CHECK(turned == 0);
-        const std::vector<double> vol = component_volumes(m, comp.of_vertex, comp.count);
+        const std::vector<double> vol = component_volumes(m, comp);
         for (std::size_t c = 0; c < comp.count; ++c) CHECK(std::fabs(vol[c] - vol0[c]) <= 1e-3 * std::fabs(vol0[c]) + 1e-12);
         ++meshes;
     };
