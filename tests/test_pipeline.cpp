@@ -87,7 +87,7 @@ TEST_CASE("FramePipeline: the meshes, stats and history of frame-by-frame calls,
     CHECK(s6.level_history);
 }
 
-TEST_CASE("FramePipeline: a frame reconstruct rejects fails alone; a sink that throws stops the pipeline", "[pipeline]") {
+TEST_CASE("FramePipeline: a frame reconstruct rejects fails alone, and a sink that throws stops the pipeline", "[pipeline]") {
     trilevel::Reconstructor rec;
     const trilevel::Params p = sequence_params();
     std::vector<std::string> seen;
@@ -169,7 +169,7 @@ TEST_CASE("FramePipeline: a memory limit counts the mesh being written and the n
     pipe.finish();
 }
 
-TEST_CASE("CLI sequences: pipelined output is the bytes of one frame at a time; a bad frame in the middle fails alone",
+TEST_CASE("CLI sequences: pipelined output is the bytes of one frame at a time, and a bad frame in the middle fails alone",
           "[cli][sequence][pipeline]") {
     TempDir tmp;
     for (int f = 0; f < 6; ++f)
