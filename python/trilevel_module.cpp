@@ -504,7 +504,7 @@ return_attributes: also return the vertex attributes ({name: (m,) or (m, 3) floa
         trilevel::write_mesh(path, mesh, options);
     }, py::arg("path"), py::arg("vertices"), py::arg("triangles"), py::kw_only(), py::arg("vertex_level") = py::none(),
        py::arg("color_levels") = false, py::arg("normals") = py::none(), py::arg("attributes") = py::none(),
-       R"(Writes a mesh by extension: .ply (binary), .obj, .vtk, .vtp, .vtu (VTK XML; meshio reads .vtu).
+       R"(Writes a mesh by extension: .ply (binary), .obj, .vtk, .vtp, .vtu (.vtp and .vtu: VTK XML; meshio reads all but .vtp).
 
 vertex_level: (m,) 2 or 3 per vertex: a PLY `level` vertex property (color_levels: and colours).
 normals: (m, 3) per-vertex normals: PLY nx ny nz, VTK NORMALS, VTK XML `Normals`, OBJ vn.

@@ -3,6 +3,7 @@
 #include <cstring>
 #include <fstream>
 
+#include "cli_test_support.hpp"
 #include "test_support.hpp"
 #include "trilevel/io.hpp"
 
@@ -129,6 +130,42 @@ TEST_CASE("read_mesh rejects non-finite normals and attributes, and VTK levels o
                                         "0 0 0 1 0 0 0 1 0\nPOLYGONS 1 4\n3 0 1 2\nPOINT_DATA 3\nSCALARS level int 1\n"
                                         "LOOKUP_TABLE default\n2 3 300\n";
     REQUIRE_THROWS_WITH(trilevel::read_mesh(tmp.file("l.vtk")), Catch::Contains("l.vtk") && Catch::Contains("vertex level 300 out of range"));
+}
+
+TEST_CASE("legacy .vtk meshes: an UNSTRUCTURED_GRID of triangles with VECTORS Normals, and POLYDATA still read", "[io]") {
+    TempDir tmp;
+    trilevel::Mesh m;
+    m.positions = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+    m.triangles = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
+    m.vertex_level = {2, 3, 2, 3};
+    m.normals = {-1, -1, -1, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+    trilevel::write_mesh(tmp.file("t.vtk"), m);
+    const std::string text = trilevel::test::slurp(tmp.file("t.vtk"));
+    CHECK(text.find("DATASET UNSTRUCTURED_GRID\n") != std::string::npos);  // what meshio's legacy reader takes
+    CHECK(text.find("\nCELLS 4 16\n") != std::string::npos);
+    CHECK(text.find("\nCELL_TYPES 4\n") != std::string::npos);
+    CHECK(text.find("VECTORS Normals float\n") != std::string::npos);
+    CHECK(text.find("POLYDATA") == std::string::npos);
+    CHECK(text.find("NORMALS") == std::string::npos);
+    const trilevel::Mesh back = trilevel::read_mesh(tmp.file("t.vtk"));
+    CHECK(back.positions == m.positions);
+    CHECK(back.triangles == m.triangles);
+    CHECK(back.vertex_level == m.vertex_level);
+    CHECK(back.normals == m.normals);
+    CHECK(back.attributes.empty());
+    // an attribute named Normals beside the normals has no place of its own
+    trilevel::Mesh clash = m;
+    clash.attributes.push_back({"Normals", 3, std::vector<float>(12, 0.0f)});
+    REQUIRE_THROWS_WITH(trilevel::write_mesh(tmp.file("c.vtk"), clash), Catch::Contains("'Normals' collides"));
+    // cells that are not polygons are refused by name; POLYDATA files of other writers still read
+    std::ofstream(tmp.file("tet.vtk")) << "# vtk DataFile Version 4.2\nt\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 float\n"
+                                          "0 0 0 1 0 0 0 1 0 0 0 1\nCELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n10\n";
+    REQUIRE_THROWS_WITH(trilevel::read_mesh(tmp.file("tet.vtk")), Catch::Contains("cell 0 has type 10, not a triangle, polygon or quad"));
+    std::ofstream(tmp.file("p.vtk")) << "# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nPOINTS 3 float\n"
+                                        "0 0 0 1 0 0 0 1 0\nPOLYGONS 1 4\n3 0 1 2\nPOINT_DATA 3\nNORMALS n float\n0 0 1 0 0 1 0 0 1\n";
+    const trilevel::Mesh poly = trilevel::read_mesh(tmp.file("p.vtk"));
+    CHECK(poly.triangles == std::vector<std::uint32_t>{0, 1, 2});
+    CHECK(poly.normals.size() == 9);
 }
 
 TEST_CASE("writes are atomic: clear errors, no partial or temporary files", "[io]") {

@@ -47,10 +47,10 @@ struct MeshWriteOptions {
     bool color_levels = false;  ///< PLY: vertex colours, green = level 2, blue = level 3
 };
 
-/// Writes a mesh by extension: .ply (binary little-endian), .obj, .vtk (legacy binary POLYDATA),
+/// Writes a mesh by extension: .ply (binary little-endian), .obj, .vtk (legacy binary UNSTRUCTURED_GRID of triangles, which meshio reads too),
 /// .vtp (VTK XML PolyData) or .vtu (VTK XML UnstructuredGrid of triangles; the one meshio reads),
 /// both with zlib-compressed base64 arrays and the levels as UInt8 point data `level`.
-/// Normals: PLY nx ny nz, VTK NORMALS, VTK XML point data `Normals`, OBJ vn. Attributes: PLY
+/// Normals: PLY nx ny nz, VTK VECTORS Normals, VTK XML point data `Normals`, OBJ vn. Attributes: PLY
 /// float properties `name` or `name_x name_y name_z`, VTK SCALARS or VECTORS, VTK XML Float32
 /// point data; OBJ cannot hold them and leaves them out.
 /// An attribute name with white space or one that collides with another property is an Error.

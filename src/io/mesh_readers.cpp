@@ -1,4 +1,4 @@
-// read_mesh: .ply (ascii or binary), .obj, legacy .vtk POLYDATA; enough to read back what
+// read_mesh: .ply (ascii or binary), .obj, legacy .vtk (POLYDATA, or UNSTRUCTURED_GRID of polygons); enough to read back what
 // write_mesh writes and common variants of it (polygons are fan-triangulated).
 #include <algorithm>
 #include <cmath>

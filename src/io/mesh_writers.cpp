@@ -1,7 +1,7 @@
 // write_mesh: .ply (binary LE, optional per-vertex level and level colours), .obj, .vtk
-// (legacy BINARY POLYDATA with a `level` point scalar), .vtp / .vtu (VTK XML PolyData /
+// (legacy BINARY UNSTRUCTURED_GRID of triangles with a `level` point scalar), .vtp / .vtu (VTK XML PolyData /
 // UnstructuredGrid, zlib-compressed base64 arrays). All writes are atomic and buffered.
-// Normals: PLY nx ny nz, VTK NORMALS, XML point data `Normals` (the active normals), OBJ vn.
+// Normals: PLY nx ny nz, VTK VECTORS Normals, XML point data `Normals` (the active normals), OBJ vn.
 // Attributes: PLY float properties `name` or `name_x name_y name_z`, VTK SCALARS / VECTORS, XML
 // point data arrays; OBJ has no place for them and leaves them out.
 #include <algorithm>
@@ -153,9 +153,14 @@ void write_obj(AtomicWriter& out, const Mesh& mesh) {
 void write_vtk(AtomicWriter& out, const std::string& path, const Mesh& mesh) {
     const std::size_t nv = mesh.vertex_count(), nt = mesh.triangle_count();
     if (4 * nt > 0x7fffffff) fail(path, "too many triangles for a legacy VTK file; write .ply");
-    out.write("# vtk DataFile Version 4.2\ntrilevel surface\nBINARY\nDATASET POLYDATA\nPOINTS " + std::to_string(nv) + " float\n");
+    for (const auto& a : mesh.attributes)
+        if (a.name == "Normals" && !mesh.normals.empty())
+            fail(path, "vertex attribute 'Normals' collides with the normals of a VTK file");
+    // UNSTRUCTURED_GRID of triangles (cell type 5), not POLYDATA: every legacy reader takes it,
+    // meshio's included (it reads no POLYDATA and no NORMALS section, hence VECTORS Normals).
+    out.write("# vtk DataFile Version 4.2\ntrilevel surface\nBINARY\nDATASET UNSTRUCTURED_GRID\nPOINTS " + std::to_string(nv) + " float\n");
     write_floats(out, mesh.positions.data(), mesh.positions.size(), true);
-    out.write("\nPOLYGONS " + std::to_string(nt) + " " + std::to_string(4 * nt) + "\n");
+    out.write("\nCELLS " + std::to_string(nt) + " " + std::to_string(4 * nt) + "\n");
     std::vector<char> chunk(std::size_t(1) << 20);
     for (std::size_t t = 0; t < nt;) {
         const std::size_t m = std::min(nt - t, chunk.size() / 16);
@@ -167,6 +172,13 @@ void write_vtk(AtomicWriter& out, const std::string& path, const Mesh& mesh) {
         out.write(chunk.data(), 16 * m);
         t += m;
     }
+    out.write("\nCELL_TYPES " + std::to_string(nt) + "\n");
+    for (std::size_t t = 0; t < nt;) {
+        const std::size_t m = std::min(nt - t, chunk.size() / 4);
+        for (std::size_t k = 0; k < m; ++k) store<std::int32_t>(chunk.data() + 4 * k, 5, true);  // VTK_TRIANGLE
+        out.write(chunk.data(), 4 * m);
+        t += m;
+    }
     out.write("\n");
     if (mesh.vertex_level.empty() && mesh.normals.empty() && mesh.attributes.empty()) return;
     out.write("POINT_DATA " + std::to_string(nv) + "\n");
@@ -176,7 +188,7 @@ void write_vtk(AtomicWriter& out, const std::string& path, const Mesh& mesh) {
         out.write("\n");
     }
     if (!mesh.normals.empty()) {
-        out.write("NORMALS normals float\n");
+        out.write("VECTORS Normals float\n");
         write_floats(out, mesh.normals.data(), mesh.normals.size(), true);
         out.write("\n");
     }

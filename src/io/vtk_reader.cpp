@@ -366,26 +366,38 @@ private:
     std::uint64_t offsets_ = 0, connectivity_ = 0;  ///< 5.x sizes of the next OFFSETS / CONNECTIVITY
 };
 
-/// POLYGONS <n> <size>: n polygons as <k> i0 .. ik-1, fan-triangulated.
+/// POLYGONS or CELLS <n> <size>: n polygons as <k> i0 .. ik-1, fan-triangulated (CELL_TYPES
+/// says whether CELLS are polygons: check_cell_types).
 void read_polygons(VtkCursor& cur, const std::vector<std::string_view>& t, bool binary, Mesh& mesh) {
-    if (t.size() < 3) cur.error("expected POLYGONS <n> <size>");
-    const std::uint64_t n = parse_count(cur, t[1], "POLYGONS <n> <size>");
-    const std::uint64_t size = parse_count(cur, t[2], "POLYGONS <n> <size>");
+    const std::string kw = upper(t[0]);
+    if (t.size() < 3) cur.error("expected " + kw + " <n> <size>");
+    const std::uint64_t n = parse_count(cur, t[1], (kw + " <n> <size>").c_str());
+    const std::uint64_t size = parse_count(cur, t[2], (kw + " <n> <size>").c_str());
     const auto v = cur.read_ints(size, Scalar::I32, binary);
     std::uint64_t p = 0;
     for (std::uint64_t i = 0; i < n; ++i) {
         if (p >= v.size() || v[p] < 0 || static_cast<std::uint64_t>(v[p]) > v.size() - p - 1)
-            cur.error("POLYGONS: polygon " + std::to_string(i) + " runs past the declared size");
+            cur.error(kw + ": polygon " + std::to_string(i) + " runs past the declared size");
         const std::uint64_t k = static_cast<std::uint64_t>(v[p]);
         for (std::uint64_t j = 1; j + 1 < k; ++j)
             for (std::uint64_t c : {std::uint64_t(0), j, j + 1}) {
                 const std::int64_t idx = v[p + 1 + c];
                 if (idx < 0 || static_cast<std::uint64_t>(idx) >= mesh.vertex_count())
-                    cur.error("POLYGONS: vertex index " + std::to_string(idx) + " out of range");
+                    cur.error(kw + ": vertex index " + std::to_string(idx) + " out of range");
                 mesh.triangles.push_back(static_cast<std::uint32_t>(idx));
             }
         p += k + 1;
     }
+}
+
+/// CELL_TYPES <n>: every cell a triangle (5), polygon (7) or quad (9), which CELLS fan-triangulates.
+void check_cell_types(VtkCursor& cur, const std::vector<std::string_view>& t, bool binary) {
+    if (t.size() < 2) cur.error("expected CELL_TYPES <n>");
+    const auto types = cur.read_ints(parse_count(cur, t[1], "CELL_TYPES <n>"), Scalar::I32, binary);
+    for (std::size_t i = 0; i < types.size(); ++i)
+        if (types[i] != 5 && types[i] != 7 && types[i] != 9)
+            cur.error("CELL_TYPES: cell " + std::to_string(i) + " has type " + std::to_string(types[i]) +
+                      ", not a triangle, polygon or quad");
 }
 
 /// One POINT_DATA array of a mesh: SCALARS level (the vertex level), NORMALS, other SCALARS
@@ -409,7 +421,7 @@ void read_point_array(VtkCursor& cur, const std::vector<std::string_view>& t, bo
         for (const std::int64_t level : v)
             if (level < 0 || level > 255) cur.error("vertex level " + std::to_string(level) + " out of range 0..255");
         mesh.vertex_level.assign(v.begin(), v.end());
-    } else if (kw == "NORMALS") {
+    } else if (kw == "NORMALS" || (kw == "VECTORS" && t[1] == "Normals")) {  // VECTORS Normals: write_mesh's
         mesh.normals = cur.read_values(n, *type, binary);
     } else {
         mesh.attributes.push_back({std::string(t[1]), int(comps), cur.read_values(n, *type, binary)});
@@ -438,8 +450,10 @@ Mesh read_vtk_mesh(const std::string& path, const std::string& data) {
     for (auto l = cur.line(); l; l = cur.line()) {
         const auto t = split_ws(*l);
         const std::string kw = upper(t[0]);
-        if (kw == "POLYGONS") {
+        if (kw == "POLYGONS" || kw == "CELLS") {
             read_polygons(cur, t, binary, mesh);
+        } else if (kw == "CELL_TYPES") {
+            check_cell_types(cur, t, binary);
         } else if (kw == "POINT_DATA") {
             if (t.size() < 2 || parse_count(cur, t[1], "POINT_DATA <n>") != mesh.vertex_count())
                 cur.error("POINT_DATA count does not match the " + std::to_string(mesh.vertex_count()) + " points");
@@ -449,7 +463,7 @@ Mesh read_vtk_mesh(const std::string& path, const std::string& data) {
         } else if (kw == "FIELD") {
             skip_field(cur, t, binary);
         } else {
-            cur.error("unexpected '" + std::string(t[0]) + "' in a mesh file (expected POLYGONS or POINT_DATA arrays)");
+            cur.error("unexpected '" + std::string(t[0]) + "' in a mesh file (expected POLYGONS, CELLS or POINT_DATA arrays)");
         }
     }
     return mesh;
