@@ -39,12 +39,6 @@ Params params(float r, NormalMode normals, Mode mode = Mode::Adaptive) {
 
 glm::dvec3 at(const std::vector<float>& v, std::size_t i) { return glm::dvec3(v[3 * i], v[3 * i + 1], v[3 * i + 2]); }
 
-glm::dvec3 centroid(const ParticleSet& s) {
-    glm::dvec3 c(0.0);
-    for (std::size_t i = 0; i < s.size(); ++i) c += at(s.positions, i);
-    return c / double(s.size());
-}
-
 /// Fraction of vertices whose normals in `a` and `b` have a positive dot product.
 double agreeing(const std::vector<float>& a, const std::vector<float>& b) {
     std::size_t ok = 0;
