@@ -33,19 +33,19 @@ std::vector<double> component_volumes(const Mesh& mesh, const std::vector<std::u
 }
 
 std::size_t remove_small_components(Mesh& mesh, double min_volume) {
-    std::size_t count = 0;
-    const std::vector<std::uint32_t> component = triangle_components(mesh, &count);
-    const std::vector<double> volume = component_volumes(mesh, component, count);
-    std::vector<std::uint8_t> drop(count);
-    std::size_t removed = 0;
-    for (std::size_t c = 0; c < count; ++c) removed += drop[c] = std::fabs(volume[c]) < min_volume;
+    const MeshComponents c = mesh_components(mesh);  // one labelling: by vertex, volumes alike
+    const std::vector<double> volume = component_volumes(mesh, c);
+    const std::size_t nv = mesh.vertex_count(), nt = mesh.triangle_count();
+    std::vector<std::uint8_t> has_triangle(c.count), drop(c.count);
+    for (std::size_t t = 0; t < nt; ++t) has_triangle[c.of_vertex[mesh.triangles[3 * t]]] = 1;
+    std::size_t removed = 0;  // a vertex without triangles is no component (none in a reconstruction)
+    for (std::size_t k = 0; k < c.count; ++k) removed += drop[k] = has_triangle[k] && std::fabs(volume[k]) < min_volume;
     if (removed == 0) return 0;
 
-    const std::size_t nv = mesh.vertex_count(), nt = mesh.triangle_count();
     constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
     std::vector<std::uint32_t> remap(nv, kNone);
     for (std::size_t t = 0; t < nt; ++t)
-        if (!drop[component[t]])
+        if (!drop[c.of_vertex[mesh.triangles[3 * t]]])
             for (int k = 0; k < 3; ++k) remap[mesh.triangles[3 * t + k]] = 0;
     std::uint32_t next = 0;
     for (std::size_t v = 0; v < nv; ++v)
@@ -64,7 +64,7 @@ std::size_t remove_small_components(Mesh& mesh, double min_volume) {
     std::size_t kept = 0;
     const bool kinds = mesh.triangle_kind.size() == nt;
     for (std::size_t t = 0; t < nt; ++t) {
-        if (drop[component[t]]) continue;
+        if (drop[c.of_vertex[mesh.triangles[3 * t]]]) continue;
         for (int k = 0; k < 3; ++k) mesh.triangles[3 * kept + k] = remap[mesh.triangles[3 * t + k]];
         if (kinds) mesh.triangle_kind[kept] = mesh.triangle_kind[t];
         ++kept;
