@@ -9,7 +9,6 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "mesh_quality.hpp"
 #include "mesh_topology.hpp"
 
 namespace trilevel {
