@@ -261,36 +261,120 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
             mean /= double(e - b);
             q[v] = p[v] + (factor * double(w[v])) * (mean - p[v]);
         });
-        guard();
         std::swap(p, q);
     };
+    // Checked for turned triangles once, at the end, against the positions before the steps.
+    std::vector<glm::dvec3> before = p;
     for (int it = 0; it < settings.iterations; ++it) {
         laplacian_step(settings.lambda);
         if (settings.mu != 0.0) laplacian_step(settings.mu);
     }
+    q.swap(p);
+    p.swap(before);
+    guard();
+    std::swap(p, q);
 
-    if (settings.shrink_passes > 0) {
-        // Laplacian steps shrink a surface by an amount that follows its curvature, slowly along
-        // it; the bumps they remove change from vertex to vertex. So the normal part of each
-        // vertex's whole move, averaged over a wide neighbourhood (shrink_passes rounds of
-        // averaging over the 1-ring, a reach of about sqrt(shrink_passes) edges), is the shrink:
-        // given back along the normals, it keeps the shape (a torus' tube stays round) while the
-        // bumps stay removed.
-        vertex_normals();
-        std::vector<double> sn(nv), tmp(nv);
+    // Two fields are averaged over a wide neighbourhood, in the same rounds of averaging over the
+    // 1-ring (a reach of about sqrt(rounds) edges): the normal part of each vertex's whole move,
+    // and the vertex normals.
+    // - Laplacian steps shrink a surface by an amount that follows its curvature, slowly along
+    //   it; the bumps they remove change from vertex to vertex. So the averaged normal part of the
+    //   moves is the shrink: given back along the normals, it keeps the shape (a torus' tube stays
+    //   round) while the bumps stay removed.
+    // - The Laplacian steps leave the particles' outer layer's long bumps (several particle
+    //   spacings wide), which a wider Laplacian would only remove by shrinking and distorting the
+    //   body. So the vertices follow the averaged normals instead: each triangle takes the mean of
+    //   its corners' averaged normals, and each vertex moves to the mean of its projections onto
+    //   the planes through its triangles' centroids across those normals (the vertex update of
+    //   Sun, Rosin, Martin and Langbein, "Fast and effective feature-preserving mesh denoising",
+    //   TVCG 2007), weighted as in the Laplacian steps.
+    vertex_normals();
+    std::vector<double> shrink(nv), shrink_next(nv);
+    for_vertices(nv, [&](std::size_t v) {
+        const glm::dvec3 o(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]);
+        shrink[v] = glm::dot(p[v] - o, normal[v]);
+    });
+    const bool follow_normals = settings.normal_passes > 0 && settings.update_passes > 0;
+    std::vector<glm::dvec3> filtered, filtered_next;
+    if (follow_normals) {
+        filtered = normal;
+        filtered_next.resize(nv);
+    }
+    for (int pass = 0; pass < std::max(settings.shrink_passes, follow_normals ? settings.normal_passes : 0); ++pass) {
+        const bool average_shrink = pass < settings.shrink_passes, average_normals = follow_normals && pass < settings.normal_passes;
         for_vertices(nv, [&](std::size_t v) {
-            const glm::dvec3 o(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]);
-            sn[v] = glm::dot(p[v] - o, normal[v]);
+            double sum = shrink[v];
+            glm::dvec3 n = average_normals ? filtered[v] : glm::dvec3(0.0);
+            for (std::uint32_t k = nbr.offset[v]; k < nbr.offset[v + 1]; ++k) {
+                if (average_shrink) sum += shrink[nbr.item[k]];
+                if (average_normals) n += filtered[nbr.item[k]];
+            }
+            if (average_shrink) shrink_next[v] = sum / double(nbr.offset[v + 1] - nbr.offset[v] + 1);
+            if (average_normals) {
+                const double l = glm::length(n);
+                filtered_next[v] = l > 0 ? n / l : filtered[v];
+            }
         });
-        for (int pass = 0; pass < settings.shrink_passes; ++pass) {
-            for_vertices(nv, [&](std::size_t v) {
-                double sum = sn[v];
-                for (std::uint32_t k = nbr.offset[v]; k < nbr.offset[v + 1]; ++k) sum += sn[nbr.item[k]];
-                tmp[v] = sum / double(nbr.offset[v + 1] - nbr.offset[v] + 1);
+        if (average_shrink) std::swap(shrink, shrink_next);
+        if (average_normals) std::swap(filtered, filtered_next);
+    }
+    if (settings.shrink_passes > 0) {
+        for_vertices(nv, [&](std::size_t v) { q[v] = p[v] - (shrink[v] * double(w[v])) * normal[v]; });
+        guard();
+        std::swap(p, q);
+    }
+    if (follow_normals) {
+        std::vector<glm::dvec3> face_normal(nt), centroid(nt);
+        tbb::parallel_for(std::size_t(0), nt, [&](std::size_t t) {
+            const std::uint32_t* c = corners + 3 * t;
+            const glm::dvec3 sum = filtered[c[0]] + filtered[c[1]] + filtered[c[2]];
+            const double l = glm::length(sum);
+            face_normal[t] = l > 0 ? sum / l : glm::dvec3(0.0);
+        });
+        // Moves this small rarely turn a triangle over: they are checked once, at the end of the
+        // update and tangential steps, against the positions before them.
+        before = p;
+        for (int pass = 0; pass < settings.update_passes; ++pass) {
+            tbb::parallel_for(std::size_t(0), nt, [&](std::size_t t) {
+                const std::uint32_t* c = corners + 3 * t;
+                centroid[t] = (p[c[0]] + p[c[1]] + p[c[2]]) / 3.0;
             });
-            std::swap(sn, tmp);
+            for_vertices(nv, [&](std::size_t v) {
+                const std::uint32_t b = tri.offset[v], e = tri.offset[v + 1];
+                if (b == e || w[v] <= 0.0f) {
+                    q[v] = p[v];
+                    return;
+                }
+                glm::dvec3 move(0.0);
+                for (std::uint32_t k = b; k < e; ++k) {
+                    const std::uint32_t t = tri.item[k];
+                    move += face_normal[t] * glm::dot(face_normal[t], centroid[t] - p[v]);
+                }
+                q[v] = p[v] + (double(w[v]) / double(e - b)) * move;
+            });
+            std::swap(p, q);
         }
-        for_vertices(nv, [&](std::size_t v) { q[v] = p[v] - (sn[v] * double(w[v])) * normal[v]; });
+        // The update moves vertices across the surface only as the normals pull them, which
+        // narrows some triangles: steps towards the neighbours' mean within the tangent plane
+        // even them out without moving the surface.
+        for (int pass = 0; pass < settings.tangential_passes; ++pass) {
+            vertex_normals();
+            for_vertices(nv, [&](std::size_t v) {
+                const std::uint32_t b = nbr.offset[v], e = nbr.offset[v + 1];
+                if (b == e || w[v] <= 0.0f) {
+                    q[v] = p[v];
+                    return;
+                }
+                glm::dvec3 mean(0.0);
+                for (std::uint32_t k = b; k < e; ++k) mean += p[nbr.item[k]];
+                glm::dvec3 d = mean / double(e - b) - p[v];
+                d -= normal[v] * glm::dot(d, normal[v]);
+                q[v] = p[v] + double(w[v]) * d;
+            });
+            std::swap(p, q);
+        }
+        q.swap(p);
+        p.swap(before);
         guard();
         std::swap(p, q);
     }
@@ -306,6 +390,11 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
                 const std::uint32_t* c = corners + 3 * t;
                 volume[comp.of_vertex[c[0]]] += glm::dot(p[c[0]], face_cross(p, c)) / 6.0;
             }
+            bool converged = true;  // to rounding: further steps would not change the result
+            for (std::size_t k = 0; k < comp.count; ++k)
+                if (std::fabs(volume0[k]) >= settings.min_volume && std::fabs(volume0[k] - volume[k]) > 1e-12 * std::fabs(volume0[k]))
+                    converged = false;
+            if (converged) break;
             std::vector<double> gradient(nv);
             for_vertices(nv, [&](std::size_t v) {
                 glm::dvec3 n(0.0);

@@ -4,8 +4,10 @@
 // neighbours by a weight taken from the particles around it, so that surfaces of splash and thin
 // particles (few neighbours) barely move while the bumps of the bulk's particles are ironed out.
 // The curvature-following shrink of the Laplacian steps is given back along the normals (its
-// wide-neighbourhood average), and a final correction along the normals restores each connected
-// component's volume exactly (to rounding). Only positions change, never the index topology, so
+// wide-neighbourhood average); the vertices then follow the vertex normals averaged over that
+// wide neighbourhood, which flattens the long bumps the Laplacian steps leave without shrinking;
+// a final correction along the normals restores each connected component's volume exactly (to
+// rounding). Only positions change, never the index topology, so
 // a closed oriented mesh stays closed and oriented; a step that would turn a triangle over
 // (against its orientation before smoothing) is taken back at that triangle's corners.
 // Every vertex is computed on its own over a fixed adjacency, and per-component sums run in
@@ -42,6 +44,13 @@ struct SmoothingSettings {
     /// Rounds of 1-ring averaging that estimate the curvature shrink given back at the end (see
     /// mesh_smoothing.cpp); 0: none.
     int shrink_passes = 30;
+    /// Rounds of 1-ring averaging of the vertex normals that the vertices then follow in
+    /// update_passes moves (see mesh_smoothing.cpp); either 0: none. This removes the bumps several
+    /// particle spacings wide that the Laplacian steps leave, without shrinking the body
+    /// (bench/RESULTS-smoothing.md).
+    int normal_passes = 30;
+    int update_passes = 15;  ///< moves of the vertices towards the averaged normals
+    int tangential_passes = 2;  ///< tangential Laplacian steps after the update (triangle shapes)
     bool keep_volume = true;   ///< restore each component's volume along the normals at the end
     /// Components enclosing less than this volume (world units) are left as they are: a droplet of
     /// a few particles has no particle bumps to iron out, and Laplacian steps would shrink it to

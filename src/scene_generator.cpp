@@ -44,6 +44,12 @@ public:
         for (double c : p) out_.positions.push_back(static_cast<float>((c + jitter * rng_.symmetric()) * spacing_));
     }
 
+    /// (x, y, z) plus jitter of `jitter` spacings per axis, lattice units (the draws of add()).
+    glm::dvec3 jittered(double x, double y, double z, double jitter) {
+        const double dx = jitter * rng_.symmetric(), dy = jitter * rng_.symmetric(), dz = jitter * rng_.symmetric();
+        return {x + dx, y + dy, z + dz};
+    }
+
     /// Adds a particle at exactly (x, y, z), lattice units.
     void place(double x, double y, double z) {
         for (double c : {x, y, z}) out_.positions.push_back(static_cast<float>(c * spacing_));
@@ -184,16 +190,21 @@ ParticleSet falling_drop(SceneBuilder& b, double t) {
     return b.take();
 }
 
-/// Bodies with a known surface (analytic_bodies.hpp), for measuring meshes against it: every
-/// lattice point inside the body, each jittered by up to a quarter spacing per axis (a rougher
-/// sampling than the other scenes', as a simulation leaves it). Centred on the origin.
+/// Bodies with a known surface (analytic_bodies.hpp), for measuring meshes against it: the lattice
+/// points jittered by up to a quarter spacing per axis (a rougher sampling than the other scenes',
+/// as a simulation leaves it), kept where the jittered centre lies at least r inside the body, as
+/// a fluid's particles fill it (each stands for a cube of side 2r around its centre; a ball of
+/// radius 30r holds about 12,800). Keeping lattice points up to the surface instead would leave
+/// the outer layer a whole spacing deep wherever a lattice plane just touches the surface (the
+/// poles of a ball of a whole number of spacings), a terrace no reconstruction should follow.
+/// Centred on the origin.
 ParticleSet analytic_scene(SceneBuilder& b, const AnalyticBody& body) {
     constexpr double kBodyJitter = 0.25;
     const int n = int(std::ceil(std::max({body.a + body.b, body.b, body.c})));  // half-extent, lattice units
     for (int j = -n; j <= n; ++j)
         for (int k = -n; k <= n; ++k)
             for (int i = -n; i <= n; ++i)
-                if (body.signed_distance(glm::dvec3(i, j, k)) <= 0.0) b.add(i, j, k, kBodyJitter);
+                if (const glm::dvec3 p = b.jittered(i, j, k, kBodyJitter); body.signed_distance(p) <= -0.5) b.place(p.x, p.y, p.z);
     return b.take();
 }
 

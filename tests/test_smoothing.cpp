@@ -131,11 +131,10 @@ TEST_CASE("smoothed analytic bodies against their exact surfaces (seeds never us
     const float r = 0.025f;
     struct Case {
         const char* scene;
-        double normal_deg, surface_r;  // bounds: measured plus margin (bench/RESULTS-smoothing.md)
+        double normal_deg, surface_r;  // bounds: the targets for the ball and torus; the box's, measured plus margin
+        double normal_gain;            // smoothed against raw normal rms, at most (bench/RESULTS-smoothing.md)
     };
-    // Measured at seeds 1 and 7 (tuning) with 25 steps of 0.5: ball 2.71/2.73 deg, 0.141/0.150 r; torus 4.10/4.07 deg,
-    // 0.263/0.270 r; rounded box 8.15/7.87 deg, 0.578/0.563 r.
-    for (const Case& c : {Case{"ball", 3.2, 0.18}, Case{"torus", 4.6, 0.31}, Case{"rounded-box", 9.0, 0.65}})
+    for (const Case& c : {Case{"ball", 2.5, 0.10, 0.2}, Case{"torus", 3.0, 0.14, 0.25}, Case{"rounded-box", 11.5, 0.75, 0.9}})
         for (std::uint64_t seed : {3u, 11u}) {
             INFO(c.scene << " seed " << seed);
             const ParticleSet s = generate_scene(c.scene, r, seed);
@@ -150,7 +149,7 @@ TEST_CASE("smoothed analytic bodies against their exact surfaces (seeds never us
             CHECK(q.components == 1);
             CHECK(q.euler == q0.euler);
             CHECK(q.normal_rms_deg <= c.normal_deg);
-            CHECK(q.normal_rms_deg <= 0.7 * q0.normal_rms_deg);
+            CHECK(q.normal_rms_deg <= c.normal_gain * q0.normal_rms_deg);
             CHECK(q.surface_rms <= c.surface_r);
             CHECK(q.sliver_share <= 0.005);
             CHECK(std::fabs(q.volume / q0.volume - 1.0) <= 0.01);

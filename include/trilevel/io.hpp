@@ -71,7 +71,8 @@ std::vector<std::string> scene_names();
 /// smoothly with `frame` (>= 0) for frame sequences; its particle count and order are the same in
 /// every frame. "ball" (radius 30r), "torus" (radii 40r and 14r, axis y) and "rounded-box"
 /// (half-extents 30r x 20r x 15r, edges rounded at 8r) are bodies with a known surface, centred on
-/// the origin: every lattice point inside, jittered by up to a quarter spacing per axis. Throws
+/// the origin: lattice points jittered by up to a quarter spacing per axis, kept where the centre
+/// lies at least r inside (a ball of radius 30r holds about 12,800 particles). Throws
 /// Error for an unknown name.
 ParticleSet generate_scene(const std::string& name, float radius, std::uint64_t seed = 1, int frame = 0);
 
