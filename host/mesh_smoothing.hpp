@@ -43,7 +43,7 @@ struct SmoothingSettings {
     double mu = 0.0;
     /// Rounds of 1-ring averaging that estimate the curvature shrink given back at the end (see
     /// mesh_smoothing.cpp); 0: none.
-    int shrink_passes = 30;
+    int shrink_passes = 10;
     /// Rounds of 1-ring averaging of the vertex normals that the vertices then follow in
     /// update_passes moves (see mesh_smoothing.cpp); either 0: none. This removes the bumps several
     /// particle spacings wide that the Laplacian steps leave, without shrinking the body
