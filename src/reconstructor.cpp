@@ -3,9 +3,7 @@
 // the host. Each stage is timed on its own.
 #include <algorithm>
 #include <chrono>
-#include <cstdlib>
 #include <cstdio>
-#include <cstring>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -22,6 +20,7 @@
 #include "device_input.hpp"
 #include "device_stages.hpp"
 #include "domain_split.hpp"
+#include "environment.hpp"
 #include "io/io_common.hpp"
 #include "level2_check.hpp"
 #include "level_history.hpp"
@@ -158,8 +157,7 @@ Grid make_grid(const Params& p, const Bounds& b) {
     // band closure (device_stages.cpp checks every cell against it); TRILEVEL_FINE_KEYS=64 keeps the
     // 64-bit ones (tests: both give the same mesh).
     const glm::ivec3 top = glm::ivec3(glm::min(glm::ceil(extent) + 2.0 * g.frame.coarse_steps, glm::dvec3(lattice::kMaxCoord)));
-    const char* keys = std::getenv("TRILEVEL_FINE_KEYS");
-    if (!(keys && std::strcmp(keys, "64") == 0)) g.frame.keys = lattice::key_layout_for(top);
+    if (!environment().wide_fine_keys) g.frame.keys = lattice::key_layout_for(top);
     return g;
 }
 
@@ -167,8 +165,7 @@ Grid make_grid(const Params& p, const Bounds& b) {
 /// the split path of domain_split.hpp on small scenes).
 double lattice_capacity_steps() {
     double cap = lattice::kMaxCoord;
-    if (const char* env = std::getenv("TRILEVEL_MAX_LATTICE_STEPS"); env && *env)
-        cap = std::clamp(std::strtod(env, nullptr), 64.0, cap);
+    if (const std::optional<double> steps = environment().max_lattice_steps) cap = std::clamp(*steps, 64.0, cap);
     return cap;
 }
 
@@ -716,8 +713,7 @@ Mesh Reconstructor::reconstruct(const float* xyz, std::size_t count, const Param
     auto t0 = Clock::now();
     OpenCLRuntime& rt = impl_->rt;
     const OpenCLRuntime::ProgramBuildTimes built_before = rt.take_program_build_times();  // the constructor's
-    const char* fault = std::getenv("TRILEVEL_FAULT");  // test hook: opencl_runtime.hpp, inject_fault
-    rt.inject_fault(fault ? fault : "");
+    rt.inject_fault(environment().fault);  // test hook: opencl_runtime.hpp, inject_fault
     // Whatever fails, the runtime is reset (queue drained, events dropped) so that the next frame
     // starts clean, and no partial mesh is returned.
     try {
