@@ -25,6 +25,7 @@
 #include <CLI/CLI.hpp>
 #include <tbb/global_control.h>
 
+#include "environment.hpp"
 #include "frame_sequence.hpp"
 #include "io/io_common.hpp"
 #include "trilevel/io.hpp"
@@ -306,10 +307,7 @@ void reconstruct_file(std::optional<trilevel::Reconstructor>& rec, const trileve
 
 /// Whether sequences are pipelined: TRILEVEL_PIPELINE=0 turns it off (one frame at a time, the
 /// lowest memory; tests compare the two).
-bool pipelining() {
-    const char* env = std::getenv("TRILEVEL_PIPELINE");
-    return !(env && std::string(env) == "0");
-}
+bool pipelining() { return trilevel::environment().pipeline; }
 
 /// A frame sequence through a trilevel::FramePipeline: this thread reads frame k+1 while the
 /// pipeline's worker meshes frame k and its sink writes frame k-1 and reports it, in frame order.

@@ -80,9 +80,9 @@ bool by_key_then_level_down(const CoarseCell& x, const CoarseCell& y) {
 
 }  // namespace
 
-std::vector<CoarseCell> band_closure_cells(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
+std::vector<CoarseCell> band_closure_cells(const std::vector<CoarseCell>& cells, const LatticeFrame& lattice_frame,
                                            const FinePointMap& field) {
-    const int cs = frame.coarse_steps;
+    const int cs = lattice_frame.coarse_steps;
     const CellIndex index(cells);
     const FaceChecker checker(index, cs, field);
     tbb::enumerable_thread_specific<Scratch> scratch;

@@ -16,7 +16,7 @@ namespace trilevel {
 /// (a coordinate < 0, or a lattice point beyond lattice::kMaxCoord) or a needed point is missing
 /// from `field`. The caller evaluates the new cells' points and calls
 /// again until the result is empty.
-std::vector<CoarseCell> band_closure_cells(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
+std::vector<CoarseCell> band_closure_cells(const std::vector<CoarseCell>& cells, const LatticeFrame& lattice_frame,
                                            const FinePointMap& field);
 
 }  // namespace trilevel

@@ -7,9 +7,9 @@
 
 namespace trilevel {
 
-std::vector<std::uint64_t> edge_refinement_points(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
-                                                     const FinePointMap& field) {
-    const int cs = frame.coarse_steps;
+std::vector<std::uint64_t> edge_refinement_points(const std::vector<CoarseCell>& cells,
+                                                  const LatticeFrame& lattice_frame, const FinePointMap& field) {
+    const int cs = lattice_frame.coarse_steps;
     std::vector<std::uint64_t> out;
     for (const CoarseCell& cell : cells) {
         if (cell.level != 2) continue;

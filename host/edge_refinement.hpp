@@ -21,8 +21,8 @@ namespace trilevel {
 /// Keys (sorted, unique) of the midpoints of the level-2 edges of the level-2 cells in `cells`
 /// whose end values in `field` differ in sign (mc::inside) and that `field` does not hold yet.
 /// Edges with an end missing from `field` are skipped.
-std::vector<std::uint64_t> edge_refinement_points(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
-                                                     const FinePointMap& field);
+std::vector<std::uint64_t> edge_refinement_points(const std::vector<CoarseCell>& cells,
+                                                  const LatticeFrame& lattice_frame, const FinePointMap& field);
 
 // The level-2 midpoint rule (the surface mesher and crack stitching apply it inline, on batched
 // lookups): the value at the midpoint of a level-2 edge with end values va, vb is the field's value

@@ -72,7 +72,8 @@ bool cell_fails(const FinePointMap& field, const CoarseCell& c, int cs, float to
 }  // namespace
 
 std::vector<std::size_t> cells_failing_level2_check(const std::vector<CoarseCell>& cells,
-                                                    const std::vector<std::uint8_t>& checked, const LatticeFrame& frame,
+                                                    const std::vector<std::uint8_t>& checked,
+                                                    const LatticeFrame& lattice_frame,
                                                     const FinePointMap& field, float tolerance,
                                                     const std::vector<float>& scale) {
     if (checked.size() != cells.size()) throw Error("level-2 check: one flag per cell expected");
@@ -83,7 +84,8 @@ std::vector<std::size_t> cells_failing_level2_check(const std::vector<CoarseCell
         CellValues& v = scratch.local();
         for (std::size_t i = range.begin(); i != range.end(); ++i)
             if (cells[i].level == 2 && checked[i])
-                fails[i] = cell_fails(field, cells[i], frame.coarse_steps, scale.empty() ? tolerance : tolerance * scale[i], v);
+                fails[i] = cell_fails(field, cells[i], lattice_frame.coarse_steps,
+                                      scale.empty() ? tolerance : tolerance * scale[i], v);
     });
     std::vector<std::size_t> out;
     for (std::size_t i = 0; i < cells.size(); ++i)

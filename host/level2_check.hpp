@@ -26,7 +26,8 @@ namespace trilevel {
 /// checked cell must be in `field` (throws Error). `scale`, empty or one factor per cell, multiplies
 /// the tolerance cell by cell: the level history's hysteresis (level_history.hpp, check_scale).
 std::vector<std::size_t> cells_failing_level2_check(const std::vector<CoarseCell>& cells,
-                                                    const std::vector<std::uint8_t>& checked, const LatticeFrame& frame,
+                                                    const std::vector<std::uint8_t>& checked,
+                                                    const LatticeFrame& lattice_frame,
                                                     const FinePointMap& field, float tolerance,
                                                     const std::vector<float>& scale = {});
 

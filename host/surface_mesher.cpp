@@ -60,13 +60,13 @@ glm::vec3 crossing_position(const LatticeFrame& f, glm::ivec3 lower, int axis, f
 
 class CellMesher {
 public:
-    CellMesher(const LatticeFrame& frame, const FinePointMap& field, const CellIndex& cells)
-        : frame_(frame), field_(field), cells_(cells) {}
+    CellMesher(const LatticeFrame& lattice_frame, const FinePointMap& field, const CellIndex& cells)
+        : lattice_frame_(lattice_frame), field_(field), cells_(cells) {}
 
     void mesh(const CoarseCell& cell, Scratch& s, ChunkOut& out) const;
 
 private:
-    const LatticeFrame& frame_;
+    const LatticeFrame& lattice_frame_;
     const FinePointMap& field_;
     const CellIndex& cells_;
     bool gather(const CoarseCell& cell, int n, Scratch& s) const;
@@ -78,7 +78,7 @@ private:
 // probe. Returns false when all values have one sign: no crossing in the cell or on its faces.
 bool CellMesher::gather(const CoarseCell& cell, int n, Scratch& s) const {
     const int st = stride(cell.level), np = n + 1;
-    const glm::ivec3 base = cell.coord * frame_.coarse_steps;
+    const glm::ivec3 base = cell.coord * lattice_frame_.coarse_steps;
     const std::size_t count = std::size_t(np) * np * np;
     const float* values = field_.values().data();
     const std::uint64_t capacity = field_.capacity();
@@ -118,7 +118,7 @@ bool CellMesher::gather(const CoarseCell& cell, int n, Scratch& s) const {
 // (stored value when present, else the linear mean), looked up in one prefetched batch.
 void CellMesher::level2_midpoints(const CoarseCell& cell, int n, Scratch& s) const {
     const int np = n + 1, axis_step[3] = {1, np, np * np};
-    const glm::ivec3 base = cell.coord * frame_.coarse_steps;
+    const glm::ivec3 base = cell.coord * lattice_frame_.coarse_steps;
     s.mid_keys.clear();
     s.mid_edges.clear();
     for (int z = 0, lp = 0; z < np; ++z)
@@ -144,8 +144,8 @@ void CellMesher::level2_midpoints(const CoarseCell& cell, int n, Scratch& s) con
 
 void CellMesher::mesh(const CoarseCell& cell, Scratch& s, ChunkOut& out) const {
     const bool l2 = cell.level == 2;
-    const int st = stride(cell.level), n = frame_.coarse_steps / st, np = n + 1;
-    const glm::ivec3 base = cell.coord * frame_.coarse_steps;
+    const int st = stride(cell.level), n = lattice_frame_.coarse_steps / st, np = n + 1;
+    const glm::ivec3 base = cell.coord * lattice_frame_.coarse_steps;
     if (!gather(cell, n, s)) return;
     if (l2) level2_midpoints(cell, n, s);
     const auto& table = mc::case_table();
@@ -176,7 +176,7 @@ void CellMesher::mesh(const CoarseCell& cell, Scratch& s, ChunkOut& out) const {
         }
         id = std::int32_t(out.keys.size());
         out.keys.push_back(lattice::edge_key(lower, ce.axis));
-        out.positions.push_back(crossing_position(frame_, lower, ce.axis, a0, a1));
+        out.positions.push_back(crossing_position(lattice_frame_, lower, ce.axis, a0, a1));
         out.level.push_back(std::uint8_t(cell.level));
         out.shared.push_back(on_boundary);
         return std::uint32_t(id);
@@ -204,8 +204,8 @@ void CellMesher::stitch(const CoarseCell& cell, Scratch& s, ChunkOut& out) const
             glm::ivec3 nb = cell.coord;
             nb[axis] += side ? 1 : -1;
             if (cells_.level(nb) != 2) continue;
-            const Level3Block block{cell.coord * frame_.coarse_steps, frame_.coarse_steps, s.values.data(),
-                                    s.slots.data(), out.positions.data()};
+            const Level3Block block{cell.coord * lattice_frame_.coarse_steps, lattice_frame_.coarse_steps,
+                                    s.values.data(), s.slots.data(), out.positions.data()};
             const std::size_t patches = stitch_transition_face(block, axis, side, field_, out.triangles, out.crack_runs);
             out.kinds.insert(out.kinds.end(), patches, TriangleKind::Patch);
         }
@@ -307,12 +307,13 @@ CrackRuns global_runs(const std::vector<ChunkOut>& chunks, const std::vector<std
 
 }  // namespace
 
-Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame& frame, const FinePointMap& field,
-                       CrackClosing closing, std::size_t* collapsed) {
-    if (frame.coarse_steps < 2 || frame.coarse_steps % 2) throw Error("triangulation: coarse_steps must be even");
+Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame& lattice_frame,
+                       const FinePointMap& field, CrackClosing closing, std::size_t* collapsed) {
+    if (lattice_frame.coarse_steps < 2 || lattice_frame.coarse_steps % 2)
+        throw Error("triangulation: coarse_steps must be even");
     // Phases 1-2 as a pipeline: chunks are meshed in parallel and numbered in order meanwhile.
     const CellIndex cell_index(cells);
-    const CellMesher mesher(frame, field, cell_index);
+    const CellMesher mesher(lattice_frame, field, cell_index);
     const std::size_t nc = (cells.size() + kCellsPerChunk - 1) / kCellsPerChunk;
     std::vector<ChunkOut> chunks(nc);
     std::vector<std::vector<std::uint32_t>> ids(nc);

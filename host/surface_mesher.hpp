@@ -18,7 +18,8 @@ namespace trilevel {
 /// Closed and oriented whenever no crossing lies on a face without a neighbour (band closure).
 /// CrackClosing::Collapse then merges the cracks' inner crossings into the level-2 crossings
 /// (host/crack_collapse.hpp); `collapsed`, when given, receives how many vertices that removed.
-Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame& frame, const FinePointMap& field,
-                       CrackClosing closing = CrackClosing::Collapse, std::size_t* collapsed = nullptr);
+Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame& lattice_frame,
+                       const FinePointMap& field, CrackClosing closing = CrackClosing::Collapse,
+                       std::size_t* collapsed = nullptr);
 
 }  // namespace trilevel

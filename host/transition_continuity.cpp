@@ -123,11 +123,11 @@ void CellFixer::fix(const CoarseCell& cell, Scratch& s) const {
 
 }  // namespace
 
-void apply_transition_continuity(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
+void apply_transition_continuity(const std::vector<CoarseCell>& cells, const LatticeFrame& lattice_frame,
                                  FinePointMap& field) {
-    if (frame.coarse_steps % 2 != 0) throw Error("transition continuity: coarse_steps must be even");
+    if (lattice_frame.coarse_steps % 2 != 0) throw Error("transition continuity: coarse_steps must be even");
     const CellIndex index(cells);
-    const CellFixer fixer(index, frame.coarse_steps, field);
+    const CellFixer fixer(index, lattice_frame.coarse_steps, field);
     tbb::enumerable_thread_specific<Scratch> scratch;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 256), [&](const auto& r) {
         Scratch& s = scratch.local();

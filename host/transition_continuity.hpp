@@ -25,7 +25,7 @@ namespace trilevel {
 /// Only level-2 cells with a level-3 face or edge neighbour do work (paper §3.3.1). Reads only
 /// level-2 lattice points, so it is idempotent and deterministic; parallel (TBB).
 /// Throws Error when a level-2 point of such a cell is missing from `field`.
-void apply_transition_continuity(const std::vector<CoarseCell>& cells, const LatticeFrame& frame,
+void apply_transition_continuity(const std::vector<CoarseCell>& cells, const LatticeFrame& lattice_frame,
                                  FinePointMap& field);
 
 }  // namespace trilevel

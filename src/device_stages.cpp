@@ -93,36 +93,13 @@ constexpr std::size_t kBinsPerGroup = 16;  // bins one work-group takes in turn
 /// The __local candidate lists of a gather (particle_binning.cl) on this device.
 kernels::CandidateLists candidate_lists(const OpenCLRuntime& rt) { return {rt.max_candidates()}; }
 
-/// A buffer mapped for the host, unmapped when this goes: on CPU devices no copy is made.
-template <class T>
-class Mapped {
-public:
-    Mapped(OpenCLRuntime& rt, const cl::Buffer& b, std::size_t count, cl_map_flags flags) : rt_(rt), b_(b) {
-        p_ = static_cast<T*>(rt.queue().enqueueMapBuffer(b, CL_TRUE, flags, 0, count * sizeof(T)));
-    }
-    Mapped(const Mapped&) = delete;
-    Mapped& operator=(const Mapped&) = delete;
-    ~Mapped() {
-        try {
-            rt_.queue().enqueueUnmapMemObject(b_, p_);
-        } catch (const cl::Error&) {  // the frame is failing already; the queue reports it
-        }
-    }
-    T& operator[](std::size_t i) const { return p_[i]; }
-
-private:
-    OpenCLRuntime& rt_;
-    const cl::Buffer& b_;
-    T* p_ = nullptr;
-};
-
 /// The occupied bin slots in Morton order of their coordinates, and each slot's (first, count)
 /// range laid out in that order (unoccupied slots: empty): bins near in space are then near in
 /// memory and in the order work-groups take them, so a bin's 27-bin gather mostly finds its
 /// neighbours' particles in cache. Sums do not change: a gather orders candidates by bin position,
 /// not by range. Returns the sum of squared bin counts (the neighbour-pair load).
-std::uint64_t order_bins(const Mapped<cl_uint>& counts, const Mapped<cl_ulong>& keys, std::size_t cap,
-                         std::vector<cl_uint>& occupied, const Mapped<cl_uint2>& range) {
+std::uint64_t order_bins(const MappedBuffer<cl_uint>& counts, const MappedBuffer<cl_ulong>& keys, std::size_t cap,
+                         std::vector<cl_uint>& occupied, const MappedBuffer<cl_uint2>& range) {
     occupied.clear();
     for (std::size_t s = 0; s < cap; ++s)
         if (counts[s]) occupied.push_back(cl_uint(s));
@@ -145,7 +122,7 @@ BinnedParticles bin_particles(OpenCLRuntime& rt, const float* xyz, std::size_t p
     const cl_uint n = cl_uint(particles);
     DeviceBuffer pos = rt.buffer(n * sizeof(glm::vec3), "particle positions");  // packed xyz
     {
-        const Mapped<glm::vec3> p(rt, pos, n, CL_MAP_WRITE_INVALIDATE_REGION);
+        const MappedBuffer<glm::vec3> p(rt, pos, n, CL_MAP_WRITE_INVALIDATE_REGION);
         tbb::parallel_for(tbb::blocked_range<std::size_t>(0, particles, 1 << 16), [&](const auto& r) {
             for (std::size_t i = r.begin(); i != r.end(); ++i)
                 p[i] = glm::vec3(glm::dvec3(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]) - origin);
@@ -174,9 +151,9 @@ BinnedParticles bin_positions(OpenCLRuntime& rt, DeviceBuffer pos, std::size_t p
     b.range = rt.buffer(cap * sizeof(cl_uint2), "bin ranges");
     {  // counts and keys read, ranges written through maps: no host copies of the tables
         std::vector<cl_uint> occupied;
-        b.pair_load = order_bins(Mapped<cl_uint>(rt, count, cap, CL_MAP_READ),
-                                 Mapped<cl_ulong>(rt, b.bins.keys, cap, CL_MAP_READ), cap, occupied,
-                                 Mapped<cl_uint2>(rt, b.range, cap, CL_MAP_WRITE_INVALIDATE_REGION));
+        b.pair_load = order_bins(MappedBuffer<cl_uint>(rt, count, cap, CL_MAP_READ),
+                                 MappedBuffer<cl_ulong>(rt, b.bins.keys, cap, CL_MAP_READ), cap, occupied,
+                                 MappedBuffer<cl_uint2>(rt, b.range, cap, CL_MAP_WRITE_INVALIDATE_REGION));
         b.occupied_count = occupied.size();
         b.occupied = upload(rt, occupied, "occupied bins");
     }
@@ -269,7 +246,7 @@ SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& b, Particle
 
     // The cells' slots in key order (the output's) and in Morton order (the per-cell passes'). The
     // keys are read through a map (no host copy on CPU devices); the kernels below only read them.
-    const Mapped<cl_ulong> keys(rt, cells.keys, cap, CL_MAP_READ);
+    const MappedBuffer<cl_ulong> keys(rt, cells.keys, cap, CL_MAP_READ);
     std::vector<cl_uint> slots;
     for (std::size_t s = 0; s < cap; ++s)
         if (keys[s] != lattice::kEmptyKey) slots.push_back(cl_uint(s));
@@ -287,9 +264,9 @@ SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& b, Particle
     c.gradient = DeviceBuffer{};  // uniform modes: not needed after the splash cells
     c.flags = DeviceBuffer{};
     tbb::parallel_sort(slots.begin(), slots.end(), [&](cl_uint a, cl_uint b2) { return keys[a] < keys[b2]; });
-    const Mapped<cl_uint> fl(rt, flags, cap, CL_MAP_READ);
-    std::optional<Mapped<cl_uchar>> lv;
-    std::optional<Mapped<float>> kv;
+    const MappedBuffer<cl_uint> fl(rt, flags, cap, CL_MAP_READ);
+    std::optional<MappedBuffer<cl_uchar>> lv;
+    std::optional<MappedBuffer<float>> kv;
     if (forced_level == 0) {
         lv.emplace(rt, level, cap, CL_MAP_READ);
         kv.emplace(rt, cell_kappa, cap, CL_MAP_READ);
@@ -340,14 +317,15 @@ void use_key_width(OpenCLRuntime& rt, const FinePoints& p) { rt.set_fine_key_bit
 /// The layout as the kernels take it: the shifts of y and z.
 cl_uint2 key_shifts(const lattice::KeyLayout& l) { return {{cl_uint(l.y_shift), cl_uint(l.z_shift)}}; }
 
-/// The table takes the frame's key layout when it is made; every point it will hold must fit it
+/// The table takes the lattice's key layout when it is made; every point it will hold must fit it
 /// (make_grid sizes it with margin: a point outside would alias another one, so this is checked).
-void adopt_layout(FinePoints& p, const LatticeFrame& frame, const std::vector<CoarseCell>& cells) {
-    if (p.hash.capacity == 0) p.layout = frame.keys;
-    else if (p.layout != frame.keys)
+void adopt_layout(FinePoints& p, const LatticeFrame& lattice_frame, const std::vector<CoarseCell>& cells) {
+    if (p.hash.capacity == 0) p.layout = lattice_frame.keys;
+    else if (p.layout != lattice_frame.keys)
         throw Error("internal: a fine-point table is refined with a lattice of another key layout");
     for (const CoarseCell& c : cells)
-        if (!p.layout.holds(c.coord * frame.coarse_steps) || !p.layout.holds((c.coord + 1) * frame.coarse_steps))
+        if (!p.layout.holds(c.coord * lattice_frame.coarse_steps) ||
+            !p.layout.holds((c.coord + 1) * lattice_frame.coarse_steps))
             throw Error("internal: coarse cell (" + std::to_string(c.coord.x) + ", " + std::to_string(c.coord.y) + ", " +
                         std::to_string(c.coord.z) + ") lies outside the fine-point key layout");
 }
@@ -404,16 +382,16 @@ DeviceBuffer cell_buffer(OpenCLRuntime& rt, const std::vector<CoarseCell>& cells
 
 /// Stage 6 over every point inserted but not evaluated yet, one work-item a point: each unique point
 /// exactly once.
-void evaluate_pending(OpenCLRuntime& rt, FinePoints& p, const LatticeFrame& frame, const BinnedParticles& b, float r,
-                      float R) {
+void evaluate_pending(OpenCLRuntime& rt, FinePoints& p, const LatticeFrame& lattice_frame, const BinnedParticles& b,
+                      float r, float R) {
     DeviceBuffer count = rt.buffer(sizeof(cl_uint), "pending count");
     DeviceBuffer pending = rt.buffer(p.inserted * sizeof(cl_uint), "pending points");
     rt.queue().enqueueFillBuffer(count, cl_uint{0}, 0, sizeof(cl_uint));
     use_key_width(rt, p);
     kernels::collect_pending(rt, Items{p.hash.capacity}, p.hash.keys, p.values, cl_ulong(p.hash.capacity), count, pending);
     const cl_uint todo = read_buffer<cl_uint>(rt, count, 1)[0];
-    kernels::scalar_field(rt, Items{todo}, pending, todo, p.hash.keys, p.values, frame.step, b.sorted, 1.0f / b.cell,
-                          b.bins.keys, cl_ulong(b.bins.capacity), b.range, r, R, key_shifts(p.layout));
+    kernels::scalar_field(rt, Items{todo}, pending, todo, p.hash.keys, p.values, lattice_frame.step, b.sorted,
+                          1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.capacity), b.range, r, R, key_shifts(p.layout));
     rt.finish();
 }
 
@@ -427,16 +405,17 @@ struct CellPass {
 /// gathered in local memory. `claim`: which pending points of its cell a work-group takes
 /// (kernels/contract.h, CLAIM_*); the inserting modes also count what they inserted.
 CellPass run_cell_pass(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf, std::size_t cell_count,
-                       ClaimPoints claim, const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
+                       ClaimPoints claim, const LatticeFrame& lattice_frame, const BinnedParticles& b, float r,
+                       float R) {
     DeviceBuffer overflow = rt.buffer(sizeof(cl_int), "scalar field overflow flag");
     rt.queue().enqueueFillBuffer(overflow, cl_int{0}, 0, sizeof(cl_int));
     use_key_width(rt, p);
-    const cl_int cells_are_bins = float(frame.coarse_steps) * frame.step == b.cell;
-    kernels::scalar_field_cells(rt, Groups{cell_count, kCellGroup}, cell_buf, cl_int(frame.coarse_steps), cl_int(claim),
-                                p.hash.keys, cl_ulong(p.hash.capacity), p.values, frame.step, b.sorted, 1.0f / b.cell,
-                                b.bins.keys, cl_ulong(b.bins.capacity), b.range, r, R, overflow, candidate_lists(rt),
-                                kernels::Local<cl_uint>{contract::kMaxCellPoints}, kernels::Local<cl_uint>{1},
-                                cells_are_bins, p.hash.stats, key_shifts(p.layout));
+    const cl_int cells_are_bins = float(lattice_frame.coarse_steps) * lattice_frame.step == b.cell;
+    kernels::scalar_field_cells(rt, Groups{cell_count, kCellGroup}, cell_buf, cl_int(lattice_frame.coarse_steps),
+                                cl_int(claim), p.hash.keys, cl_ulong(p.hash.capacity), p.values, lattice_frame.step,
+                                b.sorted, 1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.capacity), b.range, r, R, overflow,
+                                candidate_lists(rt), kernels::Local<cl_uint>{contract::kMaxCellPoints},
+                                kernels::Local<cl_uint>{1}, cells_are_bins, p.hash.stats, key_shifts(p.layout));
     CellPass pass;
     pass.overflow = read_buffer<cl_int>(rt, overflow, 1)[0] != 0;
     if (contract::inserts(claim)) {
@@ -453,13 +432,13 @@ CellPass run_cell_pass(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_
 /// per-point kernel. So which kernel evaluates a point depends only on the cells, never on timing.
 /// False when an inserting pass filled the table: the caller grows it and runs the pass again.
 bool evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf, std::size_t cell_count,
-                    ClaimPoints claim, const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
+                    ClaimPoints claim, const LatticeFrame& lattice_frame, const BinnedParticles& b, float r, float R) {
     for (;;) {
-        const CellPass pass = run_cell_pass(rt, p, cell_buf, cell_count, claim, frame, b, r, R);
+        const CellPass pass = run_cell_pass(rt, p, cell_buf, cell_count, claim, lattice_frame, b, r, R);
         if (pass.table_full) return false;
         if (!pass.overflow) return true;
         if (!contract::inserts(claim)) {
-            evaluate_pending(rt, p, frame, b, r, R);
+            evaluate_pending(rt, p, lattice_frame, b, r, R);
             return true;
         }
         claim = claim == ClaimPoints::Inserted ? ClaimPoints::Level : ClaimPoints::EdgeMidpoints;
@@ -469,20 +448,20 @@ bool evaluate_cells(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_buf
 }  // namespace
 
 void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<CoarseCell>& cells,
-                         const LatticeFrame& frame, const BinnedParticles& b, float r, float R,
+                         const LatticeFrame& lattice_frame, const BinnedParticles& b, float r, float R,
                          const std::vector<std::uint8_t>& cube_centres) {
     if (cells.empty()) return;
     if (!cube_centres.empty() && cube_centres.size() != cells.size())
         throw Error("internal: one cube-centre flag per refined cell expected");
     const DeviceBuffer cell_buf = cell_buffer(rt, cells, cube_centres, true);
-    const std::size_t side = std::size_t(frame.coarse_steps + 1);
+    const std::size_t side = std::size_t(lattice_frame.coarse_steps + 1);
     const std::size_t work = cells.size() * side * side * side;
     if (work > std::numeric_limits<cl_uint>::max()) throw Error("too many fine points in one refinement pass");
 
-    adopt_layout(p, frame, cells);
-    ensure_fine_room(rt, p, p.inserted + estimate_points(cells, cube_centres, frame.coarse_steps));
+    adopt_layout(p, lattice_frame, cells);
+    ensure_fine_room(rt, p, p.inserted + estimate_points(cells, cube_centres, lattice_frame.coarse_steps));
     // One pass: each cell inserts its points and evaluates those it created.
-    if (evaluate_cells(rt, p, cell_buf, cells.size(), ClaimPoints::Inserted, frame, b, r, R)) {
+    if (evaluate_cells(rt, p, cell_buf, cells.size(), ClaimPoints::Inserted, lattice_frame, b, r, R)) {
         ensure_fine_room(rt, p, p.inserted);
         rt.finish();
         return;
@@ -490,53 +469,52 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<Coa
     grow_fine_points(rt, p, p.hash.capacity * 2);  // full (the estimate fell short): the passes apart
     for (;;) {  // stage 5; inserting is idempotent, so after growth the pass simply runs again
         use_key_width(rt, p);
-        kernels::refine_points(rt, Items{work}, cell_buf, cl_uint(cells.size()), cl_int(frame.coarse_steps), p.hash.keys,
-                               cl_ulong(p.hash.capacity), p.hash.stats, key_shifts(p.layout));
+        kernels::refine_points(rt, Items{work}, cell_buf, cl_uint(cells.size()), cl_int(lattice_frame.coarse_steps),
+                               p.hash.keys, cl_ulong(p.hash.capacity), p.hash.stats, key_shifts(p.layout));
         if (!grew_after_insert(rt, p)) break;
     }
-    evaluate_cells(rt, p, cell_buf, cells.size(), ClaimPoints::Level, frame, b, r, R);
+    evaluate_cells(rt, p, cell_buf, cells.size(), ClaimPoints::Level, lattice_frame, b, r, R);
     rt.finish();
 }
 
 void refine_edges(OpenCLRuntime& rt, FinePoints& p, const std::vector<CoarseCell>& cells,
-                                const LatticeFrame& frame, const BinnedParticles& b, float r, float R) {
+                  const LatticeFrame& lattice_frame, const BinnedParticles& b, float r, float R) {
     std::vector<CoarseCell> level2;
     for (const CoarseCell& c : cells)
         if (c.level == 2) level2.push_back(c);
     if (level2.empty()) return;
-    if (frame.coarse_steps > 8)  // claim_refined_edges keeps a cell's corners and midpoints in local memory
+    if (lattice_frame.coarse_steps > 8)  // claim_refined_edges keeps a cell's corners and midpoints in local memory
         throw Error("internal: edge refinement takes coarse cells of at most 8 lattice steps");
-    adopt_layout(p, frame, level2);
+    adopt_layout(p, lattice_frame, level2);
     ensure_fine_room(rt, p, p.inserted + 2 * level2.size());  // about 2 a level-2 cell (estimate_points)
     const DeviceBuffer cell_buf = cell_buffer(rt, level2, {}, true);
     bool grew = false;
-    while (!evaluate_cells(rt, p, cell_buf, level2.size(), ClaimPoints::RefinedEdges, frame, b, r, R)) {
+    while (!evaluate_cells(rt, p, cell_buf, level2.size(), ClaimPoints::RefinedEdges, lattice_frame, b, r, R)) {
         grow_fine_points(rt, p, p.hash.capacity * 2);  // full: inserting is idempotent, so the pass runs again
         grew = true;
     }
     ensure_fine_room(rt, p, p.inserted);
     // A point created in a pass that ran out of room, by a cell whose candidates did not fit, is
     // not created again: the claiming pass takes it (it raises no overflow flag the second time).
-    if (grew) evaluate_cells(rt, p, cell_buf, level2.size(), ClaimPoints::EdgeMidpoints, frame, b, r, R);
+    if (grew) evaluate_cells(rt, p, cell_buf, level2.size(), ClaimPoints::EdgeMidpoints, lattice_frame, b, r, R);
     rt.finish();
 }
 
-FinePointMap map_fine_points(OpenCLRuntime& rt, FinePoints& p) {
+MappedFinePoints map_fine_points(OpenCLRuntime& rt, FinePoints& p) {
     rt.finish();
-    if (p.hash.capacity == 0) return FinePointMap();  // no surface cell: no table
+    MappedFinePoints m;
+    if (p.hash.capacity == 0) return m;  // no surface cell: no table
     const std::size_t cap = p.hash.capacity;
-    p.mapped_keys =
-        rt.queue().enqueueMapBuffer(p.hash.keys, CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0, cap * p.layout.key_bytes());
-    p.mapped_values = static_cast<float*>(
-        rt.queue().enqueueMapBuffer(p.values, CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0, cap * sizeof(cl_float)));
-    return FinePointMap::view(p.mapped_keys, p.mapped_values, cap, p.layout);
+    m.keys = MappedBuffer<std::uint8_t>(rt, p.hash.keys, cap * p.layout.key_bytes(), CL_MAP_READ | CL_MAP_WRITE);
+    m.values = MappedBuffer<float>(rt, p.values, cap, CL_MAP_READ | CL_MAP_WRITE);
+    m.view = FinePointMap::view(m.keys.data(), m.values.data(), cap, p.layout);
+    return m;
 }
 
-void unmap_fine_points(OpenCLRuntime& rt, FinePoints& p) {
-    if (p.mapped_keys) rt.queue().enqueueUnmapMemObject(p.hash.keys, p.mapped_keys);
-    if (p.mapped_values) rt.queue().enqueueUnmapMemObject(p.values, p.mapped_values);
-    p.mapped_keys = nullptr;
-    p.mapped_values = nullptr;
+void MappedFinePoints::unmap(OpenCLRuntime& rt) {
+    view = FinePointMap();
+    keys.unmap();
+    values.unmap();
     rt.queue().finish();
 }
 

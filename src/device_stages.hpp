@@ -13,6 +13,7 @@
 #include "coarse_cells.hpp"
 #include "fine_point_map.hpp"
 #include "kernel_contract.hpp"
+#include "mapped_buffer.hpp"
 #include "opencl_runtime.hpp"
 
 namespace trilevel {
@@ -83,10 +84,8 @@ struct FinePoints {
     static constexpr double kTargetLoad = 0.7;
     DeviceHash hash;      ///< keys in `layout` (4 or 8 bytes a slot)
     DeviceBuffer values;  ///< float per slot; NaN until evaluated
-    lattice::KeyLayout layout;  ///< the frame's (LatticeFrame::keys), taken when the table is made
+    lattice::KeyLayout layout;  ///< the lattice's (LatticeFrame::keys), taken when the table is made
     std::size_t inserted = 0;
-    void* mapped_keys = nullptr;  ///< while mapped for the host (map_fine_points)
-    float* mapped_values = nullptr;
 };
 /// Which pending points of its cell a work-group claims (kernels/contract.h, CLAIM_*).
 using contract::ClaimPoints;
@@ -95,7 +94,7 @@ using contract::ClaimPoints;
 /// flagged get the centres of their level-2 cubes too (the level-2 check's points), in the same
 /// pass, so that the check costs no insert or lookup pass of its own.
 void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vector<CoarseCell>& cells,
-                         const LatticeFrame& frame, const BinnedParticles& bins, float r, float R,
+                         const LatticeFrame& lattice_frame, const BinnedParticles& bins, float r, float R,
                          const std::vector<std::uint8_t>& cube_centres = {});
 /// Edge refinement (host/edge_refinement.hpp) on the device: inserts and evaluates the midpoints of the
 /// level-2 edges of the level-2 cells among `cells` whose ends the surface separates and that the
@@ -103,12 +102,19 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vecto
 /// inserts its crossed midpoints and evaluates those it created). Every point of those cells'
 /// level must be evaluated already. The host reference is edge_refinement_points.
 void refine_edges(OpenCLRuntime& rt, FinePoints& points, const std::vector<CoarseCell>& cells,
-                                const LatticeFrame& frame, const BinnedParticles& bins, float r, float R);
-/// Maps the table for the host and returns a view of it: no copy on CPU devices (the buffers are
-/// allocated host-accessible); an empty view when nothing was ever inserted. Host writes (transition continuity) land in the table. Call
-/// unmap_fine_points before the next device stage touches `points`.
-FinePointMap map_fine_points(OpenCLRuntime& rt, FinePoints& points);
-void unmap_fine_points(OpenCLRuntime& rt, FinePoints& points);
+                  const LatticeFrame& lattice_frame, const BinnedParticles& bins, float r, float R);
+/// The fine-point table mapped for the host (map_fine_points). `view` reads and writes the table
+/// itself: no copy on CPU devices (the buffers are allocated host-accessible), and host writes
+/// (transition continuity) land in the table. No device stage may touch the table while it is
+/// mapped: unmap() first (the guards also unmap when this goes, e.g. when a stage throws).
+struct MappedFinePoints {
+    MappedBuffer<std::uint8_t> keys;  ///< the key bytes, in the table's layout
+    MappedBuffer<float> values;
+    FinePointMap view;  ///< empty when nothing was ever inserted (no table) or once unmapped
+    /// Ends the map and waits for the queue; OpenCL errors propagate.
+    void unmap(OpenCLRuntime& rt);
+};
+MappedFinePoints map_fine_points(OpenCLRuntime& rt, FinePoints& points);
 /// Copies the table to the host.
 FinePointMap read_fine_points(OpenCLRuntime& rt, const FinePoints& points);
 

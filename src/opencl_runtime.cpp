@@ -9,6 +9,7 @@
 #include <sstream>
 #include <string_view>
 
+#include "environment.hpp"
 #include "program_cache.hpp"
 #include "stage_constants.hpp"
 
@@ -69,10 +70,10 @@ DeviceInfo describe(const cl::Device& d, int index, const std::string& platform)
 
 int choose_device(int requested, const std::vector<cl::Device>& devices) {
     if (requested < 0) {
-        if (const char* env = std::getenv("TRILEVEL_DEVICE"); env && *env) {
+        if (const std::string env = environment().device; !env.empty()) {
             char* end = nullptr;
-            long v = std::strtol(env, &end, 10);
-            if (*end != '\0' || v < 0) throw Error(std::string("TRILEVEL_DEVICE='") + env + "' is not a device index");
+            long v = std::strtol(env.c_str(), &end, 10);
+            if (*end != '\0' || v < 0) throw Error("TRILEVEL_DEVICE='" + env + "' is not a device index");
             requested = int(v);
         }
     }
@@ -180,19 +181,19 @@ OpenCLRuntime::OpenCLRuntime(cl_context context, cl_device_id device, cl_command
 void OpenCLRuntime::init() {
     fp64_ = device_.getInfo<CL_DEVICE_EXTENSIONS>().find("cl_khr_fp64") != std::string::npos;
     work_group_ = std::min(work_group_, device_.getInfo<CL_DEVICE_MAX_WORK_GROUP_SIZE>());
-    if (const char* env = std::getenv("TRILEVEL_WORK_GROUP"); env && *env) work_group_ = std::strtoul(env, nullptr, 10);
+    const EnvironmentOverrides env = environment();
+    if (env.work_group) work_group_ = *env.work_group;
     // Two float4 lists plus the bin tables and the scalar field's claimed-point list (4 KiB).
     const std::uint64_t local = device_.getInfo<CL_DEVICE_LOCAL_MEM_SIZE>();
     max_candidates_ = std::size_t(std::min<std::uint64_t>(2048, local > 8192 ? (local - 8192) / 32 : 64));
-    if (const char* env = std::getenv("TRILEVEL_MAX_CANDIDATES"); env && *env)  // tests: force the fallbacks
-        max_candidates_ = std::min<std::size_t>(max_candidates_, std::max(1ul, std::strtoul(env, nullptr, 10)));
+    if (env.max_candidates) max_candidates_ = std::min(max_candidates_, *env.max_candidates);  // tests: force the fallbacks
     programs_.emplace(32, build_program(32));
 }
 
 /// gather_candidates (particle_binning.cl): one work-item copies on CPU devices, all of them on
 /// others. TRILEVEL_SERIAL_GATHER=0|1 overrides it (tests: both give the same bits).
 bool OpenCLRuntime::serial_gather() const {
-    if (const char* env = std::getenv("TRILEVEL_SERIAL_GATHER"); env && *env) return std::strcmp(env, "0") != 0;
+    if (const std::optional<bool> serial = environment().serial_gather) return *serial;
     return (device_.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_CPU) != 0;
 }
 

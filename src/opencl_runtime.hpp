@@ -48,7 +48,6 @@ public:
     /// largest divisor of the global size, which is 1 for a prime particle count (2,216,047 at x64):
     /// a work-group per item, unvectorised, each paying a launch. 256 made those kernels 1.4x faster.
     static constexpr std::size_t kDefaultWorkGroup = 256;
-    std::size_t work_group_size() const { return work_group_; }
 
     /// Enqueues `name` over `global` work-items (rounded up to the work-group size), records its event.
     void run(const std::string& name, std::size_t global);
@@ -124,7 +123,7 @@ private:
     int fine_key_bits_ = 32;
     std::vector<std::pair<std::string, cl::Event>> events_;
     std::map<std::string, double> kernel_ms_;
-    std::size_t work_group_ = kDefaultWorkGroup;
+    std::size_t work_group_ = kDefaultWorkGroup;  ///< of 1-D launches (run); see kDefaultWorkGroup
     std::size_t max_candidates_ = 2048;
     bool program_from_cache_ = false;
     std::function<void(const KernelCompileNotice&)> on_compile_;

@@ -14,6 +14,8 @@
 #include <string_view>
 #include <system_error>
 
+#include "environment.hpp"
+
 namespace trilevel {
 namespace {
 
@@ -48,9 +50,10 @@ bool is_entry_file(const std::string& file) {
 }  // namespace
 
 std::string program_cache_dir() {
-    if (const char* d = std::getenv("TRILEVEL_CACHE_DIR")) return d;  // "" turns the cache off
-    if (const char* x = std::getenv("XDG_CACHE_HOME"); x && *x) return std::string(x) + "/trilevel";
-    if (const char* h = std::getenv("HOME"); h && *h) return std::string(h) + "/.cache/trilevel";
+    const EnvironmentOverrides env = environment();
+    if (env.cache_dir) return *env.cache_dir;  // "" turns the cache off
+    if (!env.xdg_cache_home.empty()) return env.xdg_cache_home + "/trilevel";
+    if (!env.home.empty()) return env.home + "/.cache/trilevel";
     return {};
 }
 
@@ -112,12 +115,7 @@ bool store_program_binary(const std::string& path, const std::string& name, cons
 }
 
 std::uint64_t program_cache_max_bytes() {
-    const char* v = std::getenv("TRILEVEL_CACHE_MAX_MB");
-    if (!v || !*v) return kProgramCacheMaxBytes;
-    char* end = nullptr;
-    const unsigned long long mb = std::strtoull(v, &end, 10);
-    if (*end != '\0' || *v == '-' || mb > (1ull << 40)) return kProgramCacheMaxBytes;  // not a size: the default
-    return std::uint64_t(mb) << 20;
+    return environment().cache_max_bytes.value_or(kProgramCacheMaxBytes);  // not a size: the default
 }
 
 std::size_t prune_program_cache(const std::string& dir, std::uint64_t max_bytes, const std::string& keep) {

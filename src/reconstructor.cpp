@@ -1,11 +1,9 @@
 // Pipeline orchestration (docs/design.md §2): device stages 1-6, then band closure, transition
 // continuity and the edge refinement (on the device), triangulation and crack closing on
-// the host. Each stage is timed on its own.
+// the host. Each stage is a StageScope (stage_scope.hpp): timed on its own, and named in OpenCL errors.
 #include <algorithm>
 #include <chrono>
-#include <cstdlib>
 #include <cstdio>
-#include <cstring>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -22,6 +20,7 @@
 #include "device_input.hpp"
 #include "device_stages.hpp"
 #include "domain_split.hpp"
+#include "environment.hpp"
 #include "io/io_common.hpp"
 #include "level2_check.hpp"
 #include "level_history.hpp"
@@ -32,6 +31,7 @@
 #include "opencl_runtime.hpp"
 #include "sliver_cleanup.hpp"
 #include "stage_constants.hpp"
+#include "stage_scope.hpp"
 #include "surface_mesher.hpp"
 #include "transition_continuity.hpp"
 #include "vertex_data.hpp"
@@ -44,22 +44,6 @@ float default_curvature_threshold() { return constants::kDefaultCurvatureThresho
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-/// Appends the wall time of each stage to Stats::time_ms.
-class StageTimer {
-public:
-    explicit StageTimer(Stats& s) : stats_(s), last_(Clock::now()) {}
-    void stage(const char* name) {
-        auto now = Clock::now();
-        stats_.time_ms.emplace_back(name, std::chrono::duration<double, std::milli>(now - last_).count());
-        last_ = now;
-    }
-    void restart() { last_ = Clock::now(); }
-
-private:
-    Stats& stats_;
-    Clock::time_point last_;
-};
 
 void require_positive(float v, const char* name, const char* why) {
     if (!std::isfinite(v) || v <= 0.0f)
@@ -123,7 +107,7 @@ int length_scale_exponent(float r) {
 /// Lattice and coarse grid of a frame. Adaptive and uniform --cell 2 use lattice step r with
 /// coarse cells of 4 steps (levels 3 and 2); other uniform cells use step = cell.
 struct Grid {
-    LatticeFrame frame;
+    LatticeFrame lattice;  ///< the lattice's origin, step and key layout (what the stages take)
     glm::dvec3 origin;  ///< double-precision lattice origin; particles are uploaded relative to it
     CoarseBase coarse_base{};  ///< origin / coarse_edge: a whole number, so frames share one lattice
     float coarse_edge = 0.0f;
@@ -138,11 +122,11 @@ Grid make_grid(const Params& p, const Bounds& b) {
     if (p.mode == Mode::Uniform) {
         int steps = int(std::lround(constants::kCoarseCell / p.cell));
         g.forced_level = (steps == 2) ? 2 : 3;
-        g.frame.coarse_steps = (steps == 2) ? 4 : steps;
+        g.lattice.coarse_steps = (steps == 2) ? 4 : steps;
     } else {
-        g.frame.coarse_steps = 4;
+        g.lattice.coarse_steps = 4;
     }
-    g.frame.step = float(constants::kCoarseCell * r / g.frame.coarse_steps);
+    g.lattice.step = float(constants::kCoarseCell * r / g.lattice.coarse_steps);
     const glm::dvec3 lo(b.lo[0], b.lo[1], b.lo[2]), hi(b.hi[0], b.hi[1], b.hi[2]);
     const double edge = g.coarse_edge;
     // Two coarse cells of margin: the surface lies within R = one coarse cell of the particles.
@@ -151,15 +135,14 @@ Grid make_grid(const Params& p, const Bounds& b) {
     const glm::dvec3 base = glm::floor(lo / edge) - 2.0;
     g.origin = base * edge;
     for (int a = 0; a < 3; ++a) g.coarse_base[std::size_t(a)] = std::int64_t(base[a]);
-    g.frame.origin = glm::vec3(g.origin);
-    glm::dvec3 extent = (hi - g.origin) / double(g.frame.step) + 3.0 * g.frame.coarse_steps;
+    g.lattice.origin = glm::vec3(g.origin);
+    glm::dvec3 extent = (hi - g.origin) / double(g.lattice.step) + 3.0 * g.lattice.coarse_steps;
     g.extent_steps = std::max({extent.x, extent.y, extent.z});
     // 32-bit fine-point keys when the lattice fits them, with two more coarse cells of margin for
     // band closure (device_stages.cpp checks every cell against it); TRILEVEL_FINE_KEYS=64 keeps the
     // 64-bit ones (tests: both give the same mesh).
-    const glm::ivec3 top = glm::ivec3(glm::min(glm::ceil(extent) + 2.0 * g.frame.coarse_steps, glm::dvec3(lattice::kMaxCoord)));
-    const char* keys = std::getenv("TRILEVEL_FINE_KEYS");
-    if (!(keys && std::strcmp(keys, "64") == 0)) g.frame.keys = lattice::key_layout_for(top);
+    const glm::ivec3 top = glm::ivec3(glm::min(glm::ceil(extent) + 2.0 * g.lattice.coarse_steps, glm::dvec3(lattice::kMaxCoord)));
+    if (!environment().wide_fine_keys) g.lattice.keys = lattice::key_layout_for(top);
     return g;
 }
 
@@ -167,8 +150,7 @@ Grid make_grid(const Params& p, const Bounds& b) {
 /// the split path of domain_split.hpp on small scenes).
 double lattice_capacity_steps() {
     double cap = lattice::kMaxCoord;
-    if (const char* env = std::getenv("TRILEVEL_MAX_LATTICE_STEPS"); env && *env)
-        cap = std::clamp(std::strtod(env, nullptr), 64.0, cap);
+    if (const std::optional<double> steps = environment().max_lattice_steps) cap = std::clamp(*steps, 64.0, cap);
     return cap;
 }
 
@@ -212,16 +194,6 @@ void count_mesh(const Mesh& m, Stats& s) {
     }
 }
 
-/// Runs `device_work` (inserting or evaluating fine points: the table may grow) with the table
-/// unmapped, then maps it again into `field`.
-template <class F>
-void on_device(OpenCLRuntime& rt, FinePoints& points, FinePointMap& field, F&& device_work) {
-    field = FinePointMap();
-    unmap_fine_points(rt, points);
-    device_work();
-    field = map_fine_points(rt, points);
-}
-
 /// What the level-2 check (host/level2_check.hpp) takes: which cells it checks, its tolerance in
 /// world units (0: off) and the level history's factor on it per cell (empty: 1).
 struct Level2Check {
@@ -232,78 +204,70 @@ struct Level2Check {
 
 /// The level-2 check (host/level2_check.hpp) on freshly evaluated cells and cube centres, before
 /// continuity: the level-2 cells that fail it become level 3 and get their remaining points
-/// (`field` is re-mapped then). Returns how many.
-std::size_t promote_failing_cells(OpenCLRuntime& rt, FinePoints& points, FinePointMap& field,
-                                  std::vector<CoarseCell>& cells, const Level2Check& check, const LatticeFrame& frame,
-                                  const BinnedParticles& bins, float r, float R) {
+/// (`table` is unmapped for that and mapped again). Returns how many.
+std::size_t promote_failing_cells(OpenCLRuntime& rt, FinePoints& points, MappedFinePoints& table,
+                                  std::vector<CoarseCell>& cells, const Level2Check& check,
+                                  const LatticeFrame& lattice_frame, const BinnedParticles& bins, float r, float R) {
     std::vector<CoarseCell> promoted;
-    for (std::size_t i : cells_failing_level2_check(cells, check.checked, frame, field, check.tolerance, check.scale)) {
+    for (std::size_t i :
+         cells_failing_level2_check(cells, check.checked, lattice_frame, table.view, check.tolerance, check.scale)) {
         cells[i].level = 3;
         promoted.push_back(cells[i]);
     }
-    if (!promoted.empty())
-        on_device(rt, points, field, [&] { refine_and_evaluate(rt, points, promoted, frame, bins, r, R); });
+    if (!promoted.empty()) {
+        table.unmap(rt);
+        refine_and_evaluate(rt, points, promoted, lattice_frame, bins, r, R);
+        table = map_fine_points(rt, points);
+    }
     return promoted.size();
 }
 
 /// Stages 5-8 until the band is closed (docs/design.md §7): refine and evaluate the new cells, apply
 /// transition continuity, find the faces the surface leaves through, add those neighbours and
-/// repeat. Returns a view of the mapped fine-point table; `cells` gains the added cells.
-FinePointMap close_band(OpenCLRuntime& rt, FinePoints& points, std::vector<CoarseCell>& cells,
-                        const LatticeFrame& frame, const BinnedParticles& bins, float r, float R,
-                        const Level2Check& level2, Stats& s) {
+/// repeat. Each round adds to the times of the stages "scalar_field" and "band_closure". Returns
+/// the fine-point table mapped for the host; `cells` gains the added cells.
+MappedFinePoints close_band(OpenCLRuntime& rt, FinePoints& points, std::vector<CoarseCell>& cells,
+                            const LatticeFrame& lattice_frame, const BinnedParticles& bins, float r, float R,
+                            const Level2Check& level2, Stats& s) {
     std::vector<CoarseCell> fresh = cells;
     const std::vector<std::uint8_t> no_centres;
-    double t_field = 0, t_closure = 0;
     for (bool first = true;; first = false) {
-        auto t0 = Clock::now();
-        rt.set_stage("scalar_field");
-        const bool check = first && level2.tolerance > 0.0f;  // the cube centres join the first pass
-        refine_and_evaluate(rt, points, fresh, frame, bins, r, R, check ? level2.checked : no_centres);
-        FinePointMap field = map_fine_points(rt, points);
-        if (check) s.level2_check_cells = promote_failing_cells(rt, points, field, cells, level2, frame, bins, r, R);
-        auto t1 = Clock::now();
-        rt.set_stage("band_closure");
-        apply_transition_continuity(cells, frame, field);
-        fresh = band_closure_cells(cells, frame, field);
-        auto t2 = Clock::now();
-        t_field += std::chrono::duration<double, std::milli>(t1 - t0).count();
-        t_closure += std::chrono::duration<double, std::milli>(t2 - t1).count();
-        if (fresh.empty()) {
-            s.time_ms.emplace_back("scalar_field", t_field);
-            s.time_ms.emplace_back("band_closure", t_closure);
-            return field;
+        MappedFinePoints table;
+        {
+            StageScope stage(s, "scalar_field", rt);
+            const bool check = first && level2.tolerance > 0.0f;  // the cube centres join the first pass
+            refine_and_evaluate(rt, points, fresh, lattice_frame, bins, r, R, check ? level2.checked : no_centres);
+            table = map_fine_points(rt, points);
+            if (check)
+                s.level2_check_cells = promote_failing_cells(rt, points, table, cells, level2, lattice_frame, bins, r, R);
         }
-        field = FinePointMap();
-        unmap_fine_points(rt, points);
+        {
+            StageScope stage(s, "band_closure", rt);
+            apply_transition_continuity(cells, lattice_frame, table.view);
+            fresh = band_closure_cells(cells, lattice_frame, table.view);
+        }
+        if (fresh.empty()) return table;
+        table.unmap(rt);
         s.band_closure_cells += fresh.size();
         cells = merge_cells(cells, fresh);
     }
 }
 
-/// Edge refinement (host/edge_refinement.hpp): true values at the midpoints of crossed level-2 edges,
-/// found, inserted and evaluated on the device. Continuity never touches these points (no
-/// level-3 cell holds them), and the values it wrote stay in the table (a rehash copies them).
-/// `field` is re-mapped.
-void run_edge_refinement(OpenCLRuntime& rt, FinePoints& points, FinePointMap& field,
-                         const std::vector<CoarseCell>& cells, const LatticeFrame& frame, const BinnedParticles& bins,
-                         float r, float R) {
-    on_device(rt, points, field, [&] { refine_edges(rt, points, cells, frame, bins, r, R); });
-}
-
 /// Post-processing for rendering, in world units: sliver cleanup, then smoothing (Params::smooth,
 /// host/sliver_cleanup.hpp, host/mesh_smoothing.hpp), each timed when asked for.
-void postprocess(Mesh& mesh, const float* xyz, std::size_t n, const Params& p, Stats& s, StageTimer& timer) {
+void postprocess(Mesh& mesh, const float* xyz, std::size_t n, const Params& p, Stats& s) {
     if (!p.smooth && !p.sliver_cleanup) return;
-    s.sliver_edges_collapsed = collapse_slivers(mesh);
-    timer.stage("sliver_cleanup");
+    {
+        StageScope stage(s, "sliver_cleanup");
+        s.sliver_edges_collapsed = collapse_slivers(mesh);
+    }
     if (p.smooth) {
+        StageScope stage(s, "smoothing");
         SmoothingSettings settings;
         settings.iterations = p.smooth_iterations > 0 ? p.smooth_iterations : kDefaultSmoothIterations;
         settings.min_volume = smooth_min_volume(p.particle_radius);
         const std::vector<float> weights = smoothing_weights(mesh, xyz, n, p.particle_radius, p.kernel_radius * p.particle_radius);
         s.smoothing_reverted_moves = smooth_mesh(mesh, weights, settings).reverted_moves;
-        timer.stage("smoothing");
     }
     count_mesh(mesh, s);
     s.closed = is_closed_and_oriented(mesh);
@@ -312,37 +276,40 @@ void postprocess(Mesh& mesh, const float* xyz, std::size_t n, const Params& p, S
 /// Stage 11 (host/vertex_data.hpp): normals and attributes at the vertices, each timed when asked for.
 /// A smoothed mesh gets area-weighted normals for NormalMode::Gradient: its vertices left the field's zero set.
 void add_vertex_data(Mesh& mesh, const float* xyz, std::size_t n, const Params& p,
-                     const std::vector<ParticleAttribute>& attributes, StageTimer& timer) {
+                     const std::vector<ParticleAttribute>& attributes, Stats& s) {
     if (p.normals == NormalMode::None && attributes.empty()) return;
     const float r = p.particle_radius, R = p.kernel_radius * r;
     std::optional<reference::ParticleGrid> grid;  // only the area-weighted normals need no particles
     const bool gradient = p.normals == NormalMode::Gradient && !p.smooth;
-    if (gradient || !attributes.empty()) grid.emplace(vertex_particle_grid(xyz, n, r, R));
+    {  // the particle grid is timed with the first stage that needs it
+        StageScope stage(s, p.normals != NormalMode::None ? "normals" : "attributes");
+        if (gradient || !attributes.empty()) grid.emplace(vertex_particle_grid(xyz, n, r, R));
+    }
     if (p.normals != NormalMode::None) {
+        StageScope stage(s, "normals");
         mesh.normals = area_weighted_normals(mesh);
         if (gradient) mesh.normals = gradient_normals(mesh, *grid, r, R, mesh.normals);
-        timer.stage("normals");
     }
     if (!attributes.empty()) {
+        StageScope stage(s, "attributes");
         mesh.attributes = interpolate_attributes(mesh, *grid, xyz, n, R, attributes);
-        timer.stage("attributes");
     }
 }
 
 /// Params::remove_components_below on the finished mesh (world units).
-void remove_components(Mesh& m, const Params& p, Stats& s, StageTimer& timer) {
+void remove_components(Mesh& m, const Params& p, Stats& s) {
+    StageScope stage(s, "remove_components");
     const double volume = double(p.remove_components_below) * std::pow(2.0 * double(p.particle_radius), 3.0);
     s.components_removed = remove_small_components(m, volume);
     if (s.components_removed) count_mesh(m, s);
-    timer.stage("remove_components");
 }
 
 /// Params::clip_box, the last change of the mesh: cut at the box and closed there.
-void clip_to_box(Mesh& m, const Params& p, Stats& s, StageTimer& timer) {
+void clip_to_box(Mesh& m, const Params& p, Stats& s) {
+    StageScope stage(s, "clip_box");
     s.clip_cap_triangles = clip_mesh_to_box(m, *p.clip_box, p.particle_radius).cap_triangles;
     count_mesh(m, s);
     s.closed = is_closed_and_oriented(m);
-    timer.stage("clip_box");
 }
 
 std::uint64_t peak_rss_bytes() {
@@ -353,7 +320,7 @@ std::uint64_t peak_rss_bytes() {
 
 /// Whether two parameter sets give the same lattice and the same curvature, so that the levels
 /// of one frame are comparable with those of the next.
-bool same_levels_frame(const Params& a, const Params& b) {
+bool levels_comparable(const Params& a, const Params& b) {
     return a.particle_radius == b.particle_radius && a.kernel_radius == b.kernel_radius && a.mode == b.mode &&
            a.cell == b.cell;
 }
@@ -364,20 +331,28 @@ struct Reconstructor::Impl {
     Impl(int device, std::function<void(const KernelCompileNotice&)> on_compile) : rt(device, std::move(on_compile)) {}
     Impl(cl_context c, cl_device_id d, cl_command_queue q) : rt(c, d, q) {}
     OpenCLRuntime rt;
-    /// The caller's buffer during reconstruct(DevicePositions) (the `xyz` of frame() is null then).
+    /// The caller's buffer during reconstruct(DevicePositions) (the `xyz` of mesh_in_float_range()
+    /// is null then).
     std::optional<DeviceInput> device_in;
-    std::vector<float> read_back;  ///< its copy where the device path cannot be taken (frame())
+    std::vector<float> read_back;  ///< its copy where the device path cannot be taken (mesh_in_float_range())
     LevelHistory history;  ///< levels of the previous frame (adaptive mode)
-    /// Positions handed over by reconstruct(std::vector<float>&&), freed once run() has uploaded
-    /// them (null: none, or normals or attributes read them later).
+    /// Positions handed over by reconstruct(std::vector<float>&&), freed once run_stages() has
+    /// uploaded them (null: none, or normals or attributes read them later).
     std::vector<float>* handed_over = nullptr;
     Params history_params;
     float user_radius = 0.0f;  ///< the radius as given, for messages (the pipeline may run scaled)
-    Mesh frame(const float* xyz, std::size_t n, const Params& p, Stats& s);
-    Mesh domain(const float* xyz, std::size_t n, const Params& p, Stats& s, const Bounds& b);
+
+    // A frame's mesh, before post-processing, in three steps, each calling the next:
+    /// Checks the radius against the particles and scales the lengths into the range the float
+    /// kernels handle (length_scale_exponent), then mesh_domain().
+    Mesh mesh_in_float_range(const float* xyz, std::size_t n, const Params& p, Stats& s);
+    /// The particles on one lattice, or split into far-apart groups on a lattice each when they do
+    /// not fit one (domain_split.hpp), each through run_stages().
+    Mesh mesh_domain(const float* xyz, std::size_t n, const Params& p, Stats& s, const Bounds& b);
+    /// The pipeline's stages on one lattice: binning to triangulation (docs/design.md §2).
     /// `keep_levels`: record this frame's levels for the next one (off for the groups of a split
     /// domain, each on a lattice of its own).
-    Mesh run(const float* xyz, std::size_t n, const Params& p, const Grid& g, Stats& s, bool keep_levels = true);
+    Mesh run_stages(const float* xyz, std::size_t n, const Params& p, const Grid& g, Stats& s, bool keep_levels = true);
     void remember_levels(const std::vector<CoarseCell>& cells, const Grid& g, const Params& p, Stats& s);
     /// Frees the handed-over positions once copied or uploaded, when `xyz` are they (a split
     /// domain's groups are copies, and its later groups still read the original).
@@ -389,20 +364,6 @@ struct Reconstructor::Impl {
 };
 
 namespace {
-
-/// Unmaps the fine-point table if a stage fails while the host holds it, so that no buffer is
-/// released mapped and the queue is left clean for the next frame.
-struct UnmapOnFailure {
-    OpenCLRuntime& rt;
-    FinePoints& points;
-    ~UnmapOnFailure() {
-        if (!points.mapped_keys && !points.mapped_values) return;
-        try {
-            unmap_fine_points(rt, points);
-        } catch (...) {  // the device failed already; the reconstruction reports that error
-        }
-    }
-};
 
 /// Host memory a reconstruction may use: the memory limit, else what the kernel says is available.
 std::uint64_t host_budget(const Params& p) {
@@ -462,51 +423,51 @@ void append(Mesh& into, Mesh&& m) {
 
 }  // namespace
 
-/// Checks the radius against the particles, then runs the pipeline on radius-normalised lengths
-/// when the radius is outside the band the float kernels handle (length_scale_exponent).
-Mesh Reconstructor::Impl::frame(const float* xyz, std::size_t n, const Params& p, Stats& s) {
+/// Runs the pipeline on radius-normalised lengths when the radius is outside the band the float
+/// kernels handle (length_scale_exponent): scaling by a power of two is exact.
+Mesh Reconstructor::Impl::mesh_in_float_range(const float* xyz, std::size_t n, const Params& p, Stats& s) {
     if (device_in) {  // a caller's buffer: bounds and binning input on the device (device_input.hpp)
-        rt.set_stage("binning");
+        rt.set_stage("binning");  // named for errors; run_stages() times the binning stage
         const Bounds b = device_bounds(rt, *device_in);
         validate_against(p, b);
         user_radius = p.particle_radius;
         if (rt.has_fp64() && length_scale_exponent(p.particle_radius) == 0) {
             const Grid g = make_grid(p, b);
-            if (g.extent_steps <= lattice_capacity_steps()) return run(nullptr, n, p, g, s);
+            if (g.extent_steps <= lattice_capacity_steps()) return run_stages(nullptr, n, p, g, s);
         }
         read_back = read_device_positions(rt, *device_in);  // scaled or split on the host
         device_in.reset();
-        return frame(read_back.data(), n, p, s);
+        return mesh_in_float_range(read_back.data(), n, p, s);
     }
     const Bounds b = bounds_of(xyz, n);
     validate_against(p, b);
     user_radius = p.particle_radius;
     const int k = length_scale_exponent(p.particle_radius);
-    if (k == 0) return domain(xyz, n, p, s, b);
+    if (k == 0) return mesh_domain(xyz, n, p, s, b);
     check_host(double(n) * 12, double(host_budget(p)), "a scaled copy of " + std::to_string(n) + " particles");
     std::vector<float> scaled(xyz, xyz + 3 * n);
     release_input(xyz);
     for (float& v : scaled) v = std::ldexp(v, k);
     Params q = p;
     q.particle_radius = std::ldexp(p.particle_radius, k);
-    Mesh m = domain(scaled.data(), n, q, s, bounds_of(scaled.data(), n));
+    Mesh m = mesh_domain(scaled.data(), n, q, s, bounds_of(scaled.data(), n));
     for (float& v : m.positions) v = std::ldexp(v, -k);
     return m;
 }
 
 /// One lattice when the particles fit it; otherwise groups of far-apart clusters, each on a
 /// lattice of its own, their meshes concatenated (domain_split.hpp).
-Mesh Reconstructor::Impl::domain(const float* xyz, std::size_t n, const Params& p, Stats& s, const Bounds& b) {
+Mesh Reconstructor::Impl::mesh_domain(const float* xyz, std::size_t n, const Params& p, Stats& s, const Bounds& b) {
     const double capacity = lattice_capacity_steps();
     const Grid g = make_grid(p, b);
-    if (g.extent_steps <= capacity) return run(xyz, n, p, g, s);
+    if (g.extent_steps <= capacity) return run_stages(xyz, n, p, g, s);
 
     const double R = double(p.kernel_radius) * p.particle_radius, edge = g.coarse_edge;
     // A particle reaches R with its neighbour sums, its surface cells lie within R + one coarse
     // cell, band closure adds one more, and levels look one 3x3x3 block (and its neighbours) further.
     const double separation = 2.0 * (R + 3.0 * edge);
-    const double margin = 6.0 * g.frame.coarse_steps;  // make_grid's lattice margin, in steps
-    const double tile = 0.5 * (capacity - margin - 2.0 * g.frame.coarse_steps) * g.frame.step;
+    const double margin = 6.0 * g.lattice.coarse_steps;  // make_grid's lattice margin, in steps
+    const double tile = 0.5 * (capacity - margin - 2.0 * g.lattice.coarse_steps) * g.lattice.step;
     const auto groups = split_domain(xyz, n, separation, tile);
     Mesh mesh;
     std::vector<float> part;
@@ -520,7 +481,7 @@ Mesh Reconstructor::Impl::domain(const float* xyz, std::size_t n, const Params& 
         if (gg.extent_steps > capacity)  // split_domain keeps every group within one lattice
             throw Error("internal: a particle group of " + std::to_string(members.size()) + " does not fit one lattice");
         Stats gs;
-        append(mesh, run(part.data(), members.size(), p, gg, gs, false));
+        append(mesh, run_stages(part.data(), members.size(), p, gg, gs, false));
         accumulate(s, gs);
         closed = closed && gs.closed;
     }
@@ -531,8 +492,8 @@ Mesh Reconstructor::Impl::domain(const float* xyz, std::size_t n, const Params& 
     return mesh;
 }
 
-Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, const Grid& g, Stats& s, bool keep_levels) {
-    StageTimer timer(s);
+Mesh Reconstructor::Impl::run_stages(const float* xyz, std::size_t n, const Params& p, const Grid& g, Stats& s,
+                                     bool keep_levels) {
     const float r = p.particle_radius, R = p.kernel_radius * r;
     const float threshold = p.curvature_threshold > 0.0f ? p.curvature_threshold : default_curvature_threshold();
     const double host = double(host_budget(p));
@@ -543,37 +504,41 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
                                                    tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)));
     rt.reset_budget(p.memory_limit_bytes);
 
-    rt.set_stage("binning");
-    check_host(double(n) * sizeof(glm::vec4), host, "uploading " + std::to_string(n) + " particles");
-    BinnedParticles bins = device_in ? bin_device_positions(rt, *device_in, g.origin, R)
-                                     : bin_particles(rt, xyz, n, g.origin, R, [&] { release_input(xyz); });
-    bins.order = DeviceBuffer{};  // sorted -> input index: only the tests read it
-    // Neighbour sums cost sum(count^2) over bins of edge R; at a rest spacing of 2r a bin holds
-    // (K/2)^3 particles. Far more means every particle sees thousands of others: a radius far too
-    // large, or a pile of particles, that would run for hours instead of failing.
-    const double rest = std::pow(0.5 * p.kernel_radius, 3.0);
-    if (double(bins.pair_load) > std::max(double(1u << 28), 64.0 * rest * double(n)))
-        throw Error("particle radius " + fmt(user_radius) + ": on average each particle has " +
-                    fmt(double(bins.pair_load) / double(n)) + " others within one kernel radius (about " + fmt(rest) +
-                    " at a rest spacing of 2r), too many to sum; the radius is probably too large for these particles");
-    timer.stage("binning");
-    rt.set_stage("surface_particles");
-    ParticleClasses classes = classify_particles(rt, bins, r, R);
-    s.surface_particles = classes.surface;
-    s.splash_particles = classes.splash;
-    timer.stage("surface_particles");
-    rt.set_stage("surface_cells");
-    SurfaceCells sc = surface_cells(rt, bins, classes, r, R, g.coarse_edge, threshold, g.forced_level);
-    for (std::uint8_t f : sc.splash) s.splash_cells += f;
-    if (!history.empty() && !same_levels_frame(history_params, p)) history.reset();
-    if (g.forced_level == 0)
-        s.level_held = history.apply(sc.cells, sc.curvature, sc.splash, g.coarse_base, threshold, p.level_hysteresis);
-    classes = ParticleClasses{};  // memory follows the surface from here on (docs/design.md §4)
-    timer.stage("surface_cells");
+    BinnedParticles bins;
+    {
+        StageScope stage(s, "binning", rt);
+        check_host(double(n) * sizeof(glm::vec4), host, "uploading " + std::to_string(n) + " particles");
+        bins = device_in ? bin_device_positions(rt, *device_in, g.origin, R)
+                         : bin_particles(rt, xyz, n, g.origin, R, [&] { release_input(xyz); });
+        bins.order = DeviceBuffer{};  // sorted -> input index: only the tests read it
+        // Neighbour sums cost sum(count^2) over bins of edge R; at a rest spacing of 2r a bin holds
+        // (K/2)^3 particles. Far more means every particle sees thousands of others: a radius far too
+        // large, or a pile of particles, that would run for hours instead of failing.
+        const double rest = std::pow(0.5 * p.kernel_radius, 3.0);
+        if (double(bins.pair_load) > std::max(double(1u << 28), 64.0 * rest * double(n)))
+            throw Error("particle radius " + fmt(user_radius) + ": on average each particle has " +
+                        fmt(double(bins.pair_load) / double(n)) + " others within one kernel radius (about " + fmt(rest) +
+                        " at a rest spacing of 2r), too many to sum; the radius is probably too large for these particles");
+    }
+    ParticleClasses classes;
+    {
+        StageScope stage(s, "surface_particles", rt);
+        classes = classify_particles(rt, bins, r, R);
+        s.surface_particles = classes.surface;
+        s.splash_particles = classes.splash;
+    }
+    SurfaceCells sc;
+    {
+        StageScope stage(s, "surface_cells", rt);
+        sc = surface_cells(rt, bins, classes, r, R, g.coarse_edge, threshold, g.forced_level);
+        for (std::uint8_t f : sc.splash) s.splash_cells += f;
+        if (!history.empty() && !levels_comparable(history_params, p)) history.reset();
+        if (g.forced_level == 0)
+            s.level_held = history.apply(sc.cells, sc.curvature, sc.splash, g.coarse_base, threshold, p.level_hysteresis);
+        classes = ParticleClasses{};  // memory follows the surface from here on (docs/design.md §4)
+    }
 
     std::vector<CoarseCell> cells = sc.cells;
-    FinePoints points;
-    UnmapOnFailure unmap_guard{rt, points};
     Mesh mesh;
     if (!cells.empty()) {  // particles without surface (none can be: a safety net) give an empty mesh
         Level2Check level2;  // the check's second opinion, where the curvature is not clearly flat
@@ -582,24 +547,32 @@ Mesh Reconstructor::Impl::run(const float* xyz, std::size_t n, const Params& p, 
             for (float k : sc.curvature) level2.checked.push_back(k >= constants::kLevel2CheckCurvature);
             level2.scale = history.check_scale(cells, g.coarse_base, p.level_hysteresis);  // empty: no history
         }
-        FinePointMap field = close_band(rt, points, cells, g.frame, bins, r, R, level2, s);
-        timer.restart();  // close_band recorded its own two entries
-        rt.set_stage("edge_refinement");
-        run_edge_refinement(rt, points, field, cells, g.frame, bins, r, R);
-        bins = BinnedParticles{};
-        timer.stage("edge_refinement");
-        s.surface_cells = cells.size();
-        for (const auto& c : cells) (c.level == 2 ? s.surface_cells_level2 : s.surface_cells_level3)++;
-        count_points(field, s);
-
-        rt.set_stage("triangulation");
-        check_host(double(s.fine_points) * constants::kMeshBytesPerFinePoint, host, "the mesh of " + std::to_string(s.fine_points) + " fine points");
-        mesh = triangulate_cells(cells, g.frame, field, p.crack_closing, &s.crack_vertices_collapsed);
-        field = FinePointMap();
-        unmap_fine_points(rt, points);
-        points = FinePoints{};
-        rt.set_stage("");  // a first frame's pool gives the table back now, not after the checks below
-        timer.stage("triangulation");
+        FinePoints points;
+        // Stages "scalar_field" and "band_closure", repeated until the band is closed.
+        MappedFinePoints table = close_band(rt, points, cells, g.lattice, bins, r, R, level2, s);
+        {
+            // Edge refinement (host/edge_refinement.hpp): true values at the midpoints of crossed
+            // level-2 edges, found, inserted and evaluated on the device. Continuity never touches
+            // these points (no level-3 cell holds them), and the values it wrote stay in the table
+            // (a rehash copies them).
+            StageScope stage(s, "edge_refinement", rt);
+            table.unmap(rt);
+            refine_edges(rt, points, cells, g.lattice, bins, r, R);
+            table = map_fine_points(rt, points);
+            bins = BinnedParticles{};
+        }
+        {
+            StageScope stage(s, "triangulation", rt);
+            s.surface_cells = cells.size();
+            for (const auto& c : cells) (c.level == 2 ? s.surface_cells_level2 : s.surface_cells_level3)++;
+            count_points(table.view, s);
+            check_host(double(s.fine_points) * constants::kMeshBytesPerFinePoint, host,
+                       "the mesh of " + std::to_string(s.fine_points) + " fine points");
+            mesh = triangulate_cells(cells, g.lattice, table.view, p.crack_closing, &s.crack_vertices_collapsed);
+            table.unmap(rt);
+            points = FinePoints{};
+            rt.set_stage("");  // a first frame's pool gives the table back now, not after the checks below
+        }
     }
     count_mesh(mesh, s);
     s.closed = is_closed_and_oriented(mesh);
@@ -716,18 +689,17 @@ Mesh Reconstructor::reconstruct(const float* xyz, std::size_t count, const Param
     auto t0 = Clock::now();
     OpenCLRuntime& rt = impl_->rt;
     const OpenCLRuntime::ProgramBuildTimes built_before = rt.take_program_build_times();  // the constructor's
-    const char* fault = std::getenv("TRILEVEL_FAULT");  // test hook: opencl_runtime.hpp, inject_fault
-    rt.inject_fault(fault ? fault : "");
+    rt.inject_fault(environment().fault);  // test hook: opencl_runtime.hpp, inject_fault
     // Whatever fails, the runtime is reset (queue drained, events dropped) so that the next frame
     // starts clean, and no partial mesh is returned.
     try {
-        Mesh m = impl_->frame(xyz, count, params, s);
+        Mesh m = impl_->mesh_in_float_range(xyz, count, params, s);
         rt.end_frame();  // the frame's buffers stay pooled for the next one (trimmed when oversized)
-        StageTimer timer(s);  // post-processing, normals and attributes: world units, after any scaling or split
-        if (params.remove_components_below > 0.0f) remove_components(m, params, s, timer);
-        postprocess(m, xyz, count, params, s, timer);
-        if (params.clip_box) clip_to_box(m, params, s, timer);  // last: every vertex ends in the box
-        add_vertex_data(m, xyz, count, params, attributes, timer);
+        // Post-processing, normals and attributes: world units, after any scaling or split.
+        if (params.remove_components_below > 0.0f) remove_components(m, params, s);
+        postprocess(m, xyz, count, params, s);
+        if (params.clip_box) clip_to_box(m, params, s);  // last: every vertex ends in the box
+        add_vertex_data(m, xyz, count, params, attributes, s);
         s.time_ms.emplace_back("total", std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
         // Program builds first: the constructor's, and any on demand during this frame.
         const OpenCLRuntime::ProgramBuildTimes during = rt.take_program_build_times();

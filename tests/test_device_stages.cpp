@@ -516,7 +516,8 @@ TEST_CASE("edge refinement on the device grows the table when the midpoints over
     const std::size_t before = points.inserted, capacity = points.hash.capacity;
     REQUIRE(before == 40 * 27);
     {  // every level-2 edge crossed: corner signs in a checkerboard, written through the host view
-        FinePointMap view = map_fine_points(rt, points);
+        MappedFinePoints table = map_fine_points(rt, points);
+        FinePointMap& view = table.view;
         for (const CoarseCell& cell : cells)
             for (int k = 0; k <= 4; k += 2)
                 for (int j = 0; j <= 4; j += 2)
@@ -524,7 +525,7 @@ TEST_CASE("edge refinement on the device grows the table when the midpoints over
                         const glm::ivec3 p = cell.coord * 4 + glm::ivec3(i, j, k);
                         *view.find(p) = ((i + j + k) / 2) % 2 ? 0.5f * r : -0.5f * r;
                     }
-        unmap_fine_points(rt, points);
+        table.unmap(rt);
     }
     const FinePointMap host = read_fine_points(rt, points);
     const std::vector<std::uint64_t> expected = edge_refinement_points(cells, frame, host);

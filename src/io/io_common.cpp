@@ -14,6 +14,8 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include "environment.hpp"
+
 namespace fs = std::filesystem;
 
 namespace trilevel::io {
@@ -242,8 +244,7 @@ AtomicWriter::AtomicWriter(const std::string& path) : path_(path) {
 #ifdef O_TMPFILE
     // Unnamed until commit; linking it needs /proc/self/fd (linkat with AT_EMPTY_PATH needs a privilege).
     // TRILEVEL_NO_TMPFILE=1 (tests) takes the named-temporary path file systems without O_TMPFILE take.
-    const char* no_tmpfile = std::getenv("TRILEVEL_NO_TMPFILE");
-    if (!(no_tmpfile && *no_tmpfile == '1') && ::access("/proc/self/fd", X_OK) == 0) {
+    if (!environment().no_tmpfile && ::access("/proc/self/fd", X_OK) == 0) {
         const int fd = ::open(dir.empty() ? "." : dir.c_str(), O_TMPFILE | O_WRONLY | O_CLOEXEC, 0666);
         if (fd >= 0) {
             file_ = ::fdopen(fd, "wb");
