@@ -249,19 +249,21 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
             normal[v] = l > 0 ? n / l : glm::dvec3(0.0);
         });
     };
-    auto laplacian_step = [&](double factor) {
+    // p <- p + w step(v, b, e) at each vertex with a positive weight and items b..e of `rows`.
+    auto weighted_move = [&](const Rows& rows, auto&& step) {
         for_vertices(nv, [&](std::size_t v) {
-            const std::uint32_t b = nbr.offset[v], e = nbr.offset[v + 1];
-            if (b == e || w[v] <= 0.0f) {
-                q[v] = p[v];
-                return;
-            }
-            glm::dvec3 mean(0.0);
-            for (std::uint32_t k = b; k < e; ++k) mean += p[nbr.item[k]];
-            mean /= double(e - b);
-            q[v] = p[v] + (factor * double(w[v])) * (mean - p[v]);
+            const std::uint32_t b = rows.offset[v], e = rows.offset[v + 1];
+            q[v] = b == e || w[v] <= 0.0f ? p[v] : p[v] + double(w[v]) * step(v, b, e);
         });
         std::swap(p, q);
+    };
+    auto neighbour_mean = [&](std::uint32_t b, std::uint32_t e) {
+        glm::dvec3 mean(0.0);
+        for (std::uint32_t k = b; k < e; ++k) mean += p[nbr.item[k]];
+        return mean / double(e - b);
+    };
+    auto laplacian_step = [&](double factor) {
+        weighted_move(nbr, [&](std::size_t v, std::uint32_t b, std::uint32_t e) { return factor * (neighbour_mean(b, e) - p[v]); });
     };
     // Checked for turned triangles once, at the end, against the positions before the steps.
     std::vector<glm::dvec3> before = p;
@@ -339,39 +341,24 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
                 const std::uint32_t* c = corners + 3 * t;
                 centroid[t] = (p[c[0]] + p[c[1]] + p[c[2]]) / 3.0;
             });
-            for_vertices(nv, [&](std::size_t v) {
-                const std::uint32_t b = tri.offset[v], e = tri.offset[v + 1];
-                if (b == e || w[v] <= 0.0f) {
-                    q[v] = p[v];
-                    return;
-                }
+            weighted_move(tri, [&](std::size_t v, std::uint32_t b, std::uint32_t e) {
                 glm::dvec3 move(0.0);
                 for (std::uint32_t k = b; k < e; ++k) {
                     const std::uint32_t t = tri.item[k];
                     move += face_normal[t] * glm::dot(face_normal[t], centroid[t] - p[v]);
                 }
-                q[v] = p[v] + (double(w[v]) / double(e - b)) * move;
+                return move / double(e - b);
             });
-            std::swap(p, q);
         }
         // The update moves vertices across the surface only as the normals pull them, which
         // narrows some triangles: steps towards the neighbours' mean within the tangent plane
         // even them out without moving the surface.
         for (int pass = 0; pass < settings.tangential_passes; ++pass) {
             vertex_normals();
-            for_vertices(nv, [&](std::size_t v) {
-                const std::uint32_t b = nbr.offset[v], e = nbr.offset[v + 1];
-                if (b == e || w[v] <= 0.0f) {
-                    q[v] = p[v];
-                    return;
-                }
-                glm::dvec3 mean(0.0);
-                for (std::uint32_t k = b; k < e; ++k) mean += p[nbr.item[k]];
-                glm::dvec3 d = mean / double(e - b) - p[v];
-                d -= normal[v] * glm::dot(d, normal[v]);
-                q[v] = p[v] + double(w[v]) * d;
+            weighted_move(nbr, [&](std::size_t v, std::uint32_t b, std::uint32_t e) {
+                const glm::dvec3 d = neighbour_mean(b, e) - p[v];
+                return d - normal[v] * glm::dot(d, normal[v]);
             });
-            std::swap(p, q);
         }
         q.swap(p);
         p.swap(before);
