@@ -67,6 +67,19 @@ class ParameterTableTest(unittest.TestCase):
         seen = self.check("FramePipeline", init, "__init__", False, _trilevel.FramePipeline.__doc__)
         self.assertGreaterEqual(len(seen), 10)
 
+    def test_the_dask_command_line_takes_its_options_from_the_table(self):
+        try:
+            from trilevel import dask
+        except ImportError as e:  # dask.distributed is optional (Debian python3-distributed)
+            self.skipTest(f"trilevel.dask needs dask.distributed: {e}")
+        actions = {a.dest: a for a in dask._parser()._actions}
+        for keyword in dask._OPTIONS:
+            entry = self.table[keyword]
+            action = actions[keyword]
+            self.assertEqual(action.option_strings, entry["cli"].split(","), keyword)
+            self.assertIsNone(action.default, keyword)  # not given: the module's default, Params{}'s
+            self.assertTrue(action.help.startswith(entry["help"] + " (default: "), keyword)
+
     def test_the_library_applies_the_defaults(self):
         """A reconstruction with no keywords reports the table's defaults (the placeholders, 0 for the
         calibrated threshold, report what they stand for)."""
