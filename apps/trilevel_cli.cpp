@@ -29,6 +29,7 @@
 #include "frame_sequence.hpp"
 #include "io/io_common.hpp"
 #include "trilevel/io.hpp"
+#include "trilevel/params_table.hpp"
 #include "trilevel/pipeline.hpp"
 #include "trilevel/trilevel.hpp"
 
@@ -89,9 +90,25 @@ void check_output(const std::string& path, const std::vector<std::string>& exten
 // ---------------------------------------------------------------------------------------------
 // reconstruct
 
+/// The default of a Params field as option text (trilevel/params_table.hpp), parsed like a user's.
+std::string default_text(const char* field) {
+    return trilevel::param_value_text(trilevel::param_info(field).read(trilevel::Params{}));
+}
+
+/// The --help line of a Params field: the table's help, a CLI note (option syntax), the default.
+std::string help(const char* field, const std::string& note = "") {
+    const std::string d = trilevel::param_cli_default_text(trilevel::param_info(field));
+    return trilevel::param_info(field).help + (note.empty() ? "" : " " + note) + (d.empty() ? "" : " (default: " + d + ")");
+}
+
+/// The CLI names of a Params field's option.
+std::string flag(const char* field) { return trilevel::param_info(field).cli; }
+
+// Empty strings: the option was not given (Params{}'s value stays); the others start at Params{}'s.
 struct ReconstructArgs {
-    std::string input, output, radius, kernel_radius = "4", mode = "adaptive", cell = "1", threshold, memory,
-        stats, hysteresis, level2_tolerance, threads, crack_closing = "collapse", smooth_iterations;
+    std::string input, output, radius, kernel_radius = default_text("kernel_radius"), mode = default_text("mode"),
+        cell = default_text("cell"), threshold, memory, stats, hysteresis, level2_tolerance, threads,
+        crack_closing = default_text("crack_closing"), smooth_iterations;
     std::string particle_box, clip_box, remove_below;  // input filter and post-processing
     bool has_particle_box = false, has_clip_box = false, has_remove_below = false;  // given (even empty)
     std::string start, end;  // frame sequences: range of frame numbers
@@ -151,10 +168,10 @@ trilevel::Params make_params(const ReconstructArgs& a) {
     else if (a.crack_closing == "patches") p.crack_closing = trilevel::CrackClosing::Patches;
     else throw UsageError("--crack-closing must be collapse or patches, got '" + a.crack_closing + "'");
     if (!a.memory.empty()) p.memory_limit_bytes = parse_bytes(a.memory);
-    p.level_hysteresis = 0.2f;  // sequences (docs/calibration.md, "Temporal coherence"); no effect on one file
-    if (!a.hysteresis.empty()) {
-        const double h = parse_number("--level-hysteresis", a.hysteresis);
-        if (!(h >= 0 && h < 1)) throw UsageError("--level-hysteresis must lie in [0, 1), got '" + a.hysteresis + "'");
+    {  // the CLI's own default, for sequences (docs/calibration.md, "Temporal coherence"); no effect on one file
+        const std::string& text = a.hysteresis.empty() ? trilevel::param_info("level_hysteresis").cli_default : a.hysteresis;
+        const double h = parse_number("--level-hysteresis", text);
+        if (!(h >= 0 && h < 1)) throw UsageError("--level-hysteresis must lie in [0, 1), got '" + text + "'");
         p.level_hysteresis = static_cast<float>(h);
     }
     if (a.has_particle_box) p.particle_box = parse_box("--particle-box", a.particle_box);
@@ -434,8 +451,8 @@ int run_generate(const GenerateArgs& a) {
 
 /// Particles bucketed by a hash of their cell of width h, as compressed rows: bucket b holds
 /// index[start[b] .. start[b + 1]). Cells that share a bucket share its row, which only adds
-/// candidates to a search. Two passes over flat arrays: a map of one vector per cell took 2.6 s of
-/// `info`'s 4.1 s on 17.7 M particles (now 1.5 s in all).
+/// candidates to a search. Two passes over flat arrays, not a map of one vector per cell (most of
+/// `info`'s time on large files).
 struct HashGrid {
     double h = 0;
     std::uint64_t mask = 0;
@@ -572,51 +589,30 @@ int run(int argc, char** argv) {
     auto* rec = app.add_subcommand("reconstruct", "Reconstructs a closed triangle mesh from a particle file");
     rec->add_option("input", ra.input, "Particle file (.vtk, .vtu, .bgeo, .ply, .xyz); '{}' in the name: frame sequence")->required();
     rec->add_option("-o,--output", ra.output, "Mesh file (.ply, .obj, .vtk, .vtp, .vtu); '{}' is replaced by the frame number")->required();
-    rec->add_option("-r,--radius", ra.radius, "Particle radius r in world units")->required();
-    rec->add_option("--kernel-radius", ra.kernel_radius, "Kernel support in multiples of r (default 4)");
-    rec->add_option("--mode", ra.mode, "adaptive (default) or uniform");
-    rec->add_option("--cell", ra.cell, "Uniform mode cell size in r; 4/cell must be an integer (default 1)");
-    rec->add_option("--curvature-threshold", ra.threshold, "Adaptive mode level-3 threshold (default: calibrated)");
-    rec->add_option("--level2-tolerance", ra.level2_tolerance,
-                    "Adaptive mode: also refine level-2 cells whose lattice misses the field at a cube centre by more "
-                    "than this many r, where the curvature is not clearly flat (default 0.32; 0 = off)");
-    rec->add_option("--crack-closing", ra.crack_closing,
-                    "Adaptive mode: 'collapse' (default: inner crack crossings merged into the level-2 ones) or "
-                    "'patches' (every crack triangulated, paper 3.3.2)");
+    rec->add_option(flag("particle_radius"), ra.radius, help("particle_radius"))->required();
+    rec->add_option(flag("kernel_radius"), ra.kernel_radius, help("kernel_radius"));
+    rec->add_option(flag("mode"), ra.mode, help("mode"));
+    rec->add_option(flag("cell"), ra.cell, help("cell"));
+    rec->add_option(flag("curvature_threshold"), ra.threshold, help("curvature_threshold"));
+    rec->add_option(flag("level2_tolerance"), ra.level2_tolerance, help("level2_tolerance"));
+    rec->add_option(flag("crack_closing"), ra.crack_closing, help("crack_closing"));
     rec->add_option("--device", ra.device, "OpenCL device index (see `trilevel devices`)");
     rec->add_option("--threads", ra.threads, "CPU threads for the host stages and PoCL (default: every core)");
     rec->add_option("--stats", ra.stats, "Write statistics as JSON");
     rec->add_flag("--color-levels", ra.color_levels, "PLY: colour vertices by level (green 2, blue 3)");
-    auto* normals = rec->add_option("--normals", ra.normals,
-                                    "Per-vertex normals: gradient of the scalar field (alone or 'gradient'; with --smooth area-weighted) or 'area' (area-weighted)")
-                        ->expected(0, 1);
-    rec->add_flag("--smooth", ra.smooth,
-                  "Smooth the mesh for rendering: particle-weighted Laplacian smoothing that keeps each component's "
-                  "volume, with sliver cleanup; --normals then gives area-weighted normals of the smoothed mesh");
-    rec->add_option("--smooth-iterations", ra.smooth_iterations,
-                    "Smoothing strength: Laplacian steps (implies --smooth; default " +
-                        std::to_string(trilevel::kDefaultSmoothIterations) + ")");
-    rec->add_flag("--sliver-cleanup", ra.sliver_cleanup,
-                  "Collapse the needle triangles of marching cubes by index, keeping the mesh closed (on with --smooth)");
+    auto* normals = rec->add_option(flag("normals"), ra.normals, help("normals", "(given alone: 'gradient')"))->expected(0, 1);
+    rec->add_flag(flag("smooth"), ra.smooth, help("smooth"));
+    rec->add_option(flag("smooth_iterations"), ra.smooth_iterations, help("smooth_iterations"));
+    rec->add_flag(flag("sliver_cleanup"), ra.sliver_cleanup, help("sliver_cleanup"));
     rec->add_option("--attribute", ra.attributes,
                     "Particle attribute to interpolate at the vertices (e.g. velocity; .vtk/.vtu/.bgeo input; repeatable)")
         ->allow_extra_args(false);  // one name per --attribute, so a following input file stays positional
-    rec->add_option("--memory-limit", ra.memory, "Budget for the largest allocations, bytes or e.g. 2G (a sequence: each frame's, "
-                    "less the next frame read ahead and the previous mesh being written)");
+    rec->add_option(flag("memory_limit_bytes"), ra.memory, help("memory_limit_bytes", "(bytes, or e.g. 2G)"));
     rec->add_flag("-q,--quiet", ra.quiet, "Print nothing on success");
-    rec->add_option("--level-hysteresis", ra.hysteresis,
-                    "Sequences, adaptive mode: a cell keeps its previous level until its curvature passes the "
-                    "threshold by this fraction of it, and the level-2 check's tolerance is held the same way "
-                    "(default 0.2, 0 = off)");
-    auto* particle_box = rec->add_option("--particle-box", ra.particle_box,
-                    "X0,Y0,Z0,X1,Y1,Z1: ignore the particles outside this box (world units, bounds inclusive), "
-                    "with their attributes");
-    auto* remove_below = rec->add_option("--remove-components-below", ra.remove_below,
-                    "Drop the connected parts of the mesh that enclose less than N particle volumes, N (2r)^3 "
-                    "(small droplets and cavities; default 0 = off)");
-    auto* clip_box = rec->add_option("--clip-box", ra.clip_box,
-                    "X0,Y0,Z0,X1,Y1,Z1: cut the surface at this box (world units) and close it there with flat caps: "
-                    "the mesh stays closed, every vertex in the box; a box without fluid gives an empty mesh");
+    rec->add_option(flag("level_hysteresis"), ra.hysteresis, help("level_hysteresis"));
+    auto* particle_box = rec->add_option(flag("particle_box"), ra.particle_box, help("particle_box"));
+    auto* remove_below = rec->add_option(flag("remove_components_below"), ra.remove_below, help("remove_components_below"));
+    auto* clip_box = rec->add_option(flag("clip_box"), ra.clip_box, help("clip_box"));
     rec->add_option("--start", ra.start, "Sequences: first frame number to process (inclusive)");
     rec->add_option("--end", ra.end, "Sequences: last frame number to process (inclusive)");
     rec->add_flag("--skip-existing", ra.skip_existing, "Sequences: skip frames whose outputs exist (resume a run)");
@@ -662,10 +658,9 @@ int run(int argc, char** argv) {
 int main(int argc, char** argv) {
     trilevel::io::remove_temporaries_on_signals();  // Ctrl-C never leaves a temporary output behind
 #if defined(__GLIBC__)
-    // Blocks of 1 MiB or more get mappings of their own, returned to the system when freed. Under
-    // glibc's default the threshold grows with each large free (up to 32 MiB), so the particle
-    // arrays freed between stages stayed in the heap and counted towards the peak: the x64 dam
-    // break peaked at 362 MB instead of 316 MB, at the same speed.
+    // Blocks of 1 MiB or more get mappings of their own, returned to the system when freed: under
+    // glibc's default the threshold grows with each large free, so the particle arrays freed
+    // between stages stayed in the heap and counted towards the peak (bench/RESULTS-implementation.md).
     mallopt(M_MMAP_THRESHOLD, 1 << 20);
 #endif
     try {

@@ -39,7 +39,7 @@ inline bool in_range(glm::ivec3 p) {
 /// How the fine-point table stores a lattice point: its coordinates packed x lowest, y from bit
 /// `y_shift`, z from bit `z_shift`. The home slot is always that of pack(p), so the table's layout
 /// (and every result) is the same whatever the storage. A frame whose lattice fits 32 bits stores
-/// 4-byte keys (8 bytes a slot with the value instead of 12: x64 table 55 -> 37 MB); the default
+/// 4-byte keys (8 bytes a slot with the value instead of 12); the default
 /// is pack() itself in 64 bits. Must match fine_key() in kernels/hash_table.cl.
 struct KeyLayout {
     int y_shift = kAxisBits, z_shift = 2 * kAxisBits;

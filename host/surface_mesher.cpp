@@ -271,7 +271,7 @@ void release(std::vector<T>& v) {
 void number_chunk(ChunkOut& c, VertexIndex& index, std::vector<std::uint32_t>& ids, Mesh& mesh) {
     ids.resize(c.keys.size());
     // This filter is the pipeline's serial part (at 16 threads the meshing keeps up with it): the
-    // probes' cache misses overlap (x64: 50 -> 34 ms on 2 cores).
+    // probes' cache misses overlap (bench/RESULTS-implementation.md).
     for (std::size_t v = 0; v < c.keys.size(); ++v)
         if (c.shared[v]) index.prefetch(c.keys[v]);
     for (std::size_t v = 0; v < c.keys.size(); ++v) {

@@ -20,8 +20,7 @@ namespace trilevel {
 /// crossed edges keep the field's midpoint value, so their vertex lands where the uniform cell-r
 /// mesh puts it, as host/edge_refinement.hpp does for the other level-2 edges, and the centres of
 /// level-2 squares (two odd coordinates) keep theirs too; the crack stitcher closes the faces for
-/// any values there. Measured on the dam break x8 resampling at the default threshold: p99
-/// deviation from the uniform r mesh 0.411 -> 0.361 r, the same triangle count (docs/design.md).
+/// any values there: closer to the uniform r mesh at the same triangle count (docs/design.md §7).
 /// Only level-2 cells with a level-3 face or edge neighbour do work (paper §3.3.1). Reads only
 /// level-2 lattice points, so it is idempotent and deterministic; parallel (TBB).
 /// Throws Error when a level-2 point of such a cell is missing from `field`.

@@ -39,7 +39,7 @@ inline ulong trilevel_hash(ulong k) {
 // top 32 bits of the hash times the number of runs, shifted down 32 (a 32x32-bit product, which
 // vectorises where a 64-bit mul_hi does not); the key's place in its block fills the low 3 bits.
 // The particle bins keep the low-bit layout: their counting-sort buckets run in slot order, and
-// particle_curvature ran 25% slower on the multiply-shift order (x64).
+// particle_curvature ran slower on the multiply-shift order (bench/RESULTS-implementation.md).
 inline ulong home_slot(ulong k, ulong capacity) {
     const ulong h = trilevel_hash(k);
     if ((capacity & (capacity - 1)) == 0) return h & (capacity - 1);

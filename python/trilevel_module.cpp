@@ -6,11 +6,13 @@
 //
 // Positions that are already C-contiguous float32 (n, 3) arrays are read in place; anything else
 // is converted once. Returned arrays own the library's vectors (no copy): their base is a capsule.
+#include <initializer_list>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
 #include <tuple>
+#include <variant>
 #include <vector>
 
 #include <pybind11/numpy.h>
@@ -18,6 +20,7 @@
 #include <pybind11/stl.h>
 
 #include "trilevel/io.hpp"
+#include "trilevel/params_table.hpp"
 #include "trilevel/pipeline.hpp"
 #include "trilevel/trilevel.hpp"
 
@@ -58,24 +61,53 @@ std::size_t rows_of_three(const Array<T>& a, const char* name) {
     return std::size_t(a.shape(0));
 }
 
+/// The default of the Python keyword `python` (trilevel/params_table.hpp: Params{}'s value).
+const trilevel::ParamInfo& keyword_info(const char* python) {
+    for (const auto& e : trilevel::param_table())
+        if (e.python == python) return e;
+    throw trilevel::Error(std::string("no parameter with the Python keyword '") + python + "'");
+}
+template <class T>
+T default_of(const char* python) {
+    return std::get<T>(keyword_info(python).read(trilevel::Params{}));
+}
+
+/// A table default as the Python object the keyword takes (None where unset).
+py::object default_object(const trilevel::ParamValue& v) {
+    struct ToPython {
+        py::object operator()(std::monostate) const { return py::none(); }
+        py::object operator()(bool b) const { return py::bool_(b); }
+        py::object operator()(int i) const { return py::int_(i); }
+        py::object operator()(std::uint64_t u) const { return py::int_(u); }
+        py::object operator()(float f) const { return py::float_(double(f)); }
+        py::object operator()(const std::string& s) const { return py::str(s); }
+    };
+    return std::visit(ToPython{}, v);
+}
+
+/// py::arg(python) = its default from Params{}.
+py::arg_v keyword(const char* python) {
+    return py::arg(python) = default_object(keyword_info(python).read(trilevel::Params{}));
+}
+
 /// The keyword arguments of reconstruct() besides positions, particle_radius and device, in the
-/// order of define_reconstruct's argument list (OptionTypes lists their types).
+/// order of define_reconstruct's argument list (OptionTypes lists their types). Defaults: Params{}'s.
 struct ReconstructOptions {
-    std::string mode = "adaptive";
-    float cell = 1.0f;
-    float kernel_radius = 4.0f;
-    float curvature_threshold = 0.0f;
-    float level2_tolerance = trilevel::Params{}.level2_tolerance;
-    std::uint64_t memory_limit = 0;
-    float level_hysteresis = 0.0f;
-    std::string crack_closing = "collapse";  ///< "collapse" or "patches"
-    float remove_components_below = 0.0f;    ///< particle volumes; 0 = off
-    std::optional<std::vector<double>> particle_box;  ///< (x0, y0, z0, x1, y1, z1) or None
-    std::optional<std::vector<double>> clip_box;      ///< (x0, y0, z0, x1, y1, z1) or None
-    bool smooth = false;                 ///< Params::smooth
-    int smooth_iterations = 0;           ///< Params::smooth_iterations (0: the default)
-    bool sliver_cleanup = false;         ///< Params::sliver_cleanup
-    std::optional<std::string> normals;  ///< None, "gradient" or "area"
+    std::string mode = default_of<std::string>("mode");
+    float cell = default_of<float>("cell");
+    float kernel_radius = default_of<float>("kernel_radius");
+    float curvature_threshold = default_of<float>("curvature_threshold");
+    float level2_tolerance = default_of<float>("level2_tolerance");
+    std::uint64_t memory_limit = default_of<std::uint64_t>("memory_limit");
+    float level_hysteresis = default_of<float>("level_hysteresis");
+    std::string crack_closing = default_of<std::string>("crack_closing");  ///< "collapse" or "patches"
+    float remove_components_below = default_of<float>("remove_components_below");  ///< particle volumes; 0 = off
+    std::optional<std::vector<double>> particle_box;  ///< (x0, y0, z0, x1, y1, z1) or None (Params{}: unset)
+    std::optional<std::vector<double>> clip_box;      ///< (x0, y0, z0, x1, y1, z1) or None (Params{}: unset)
+    bool smooth = default_of<bool>("smooth");                   ///< Params::smooth
+    int smooth_iterations = default_of<int>("smooth_iterations");  ///< Params::smooth_iterations (0: the default)
+    bool sliver_cleanup = default_of<bool>("sliver_cleanup");   ///< Params::sliver_cleanup
+    std::optional<std::string> normals;  ///< None (Params{}: NormalMode::None), "gradient" or "area"
     std::optional<py::dict> attributes;  ///< name -> (n,) or (n, 3) array per particle
     bool return_levels = false;
 };
@@ -285,12 +317,11 @@ template <class... Option>
 void define_reconstruct(py::class_<PyReconstructor>& cls, py::module_& m, const char* method_doc, const char* function_doc,
                         std::tuple<Option...>*) {
     const auto args = std::make_tuple(
-        py::arg("positions"), py::arg("particle_radius"), py::kw_only(), py::arg("mode") = "adaptive",
-        py::arg("cell") = 1.0f, py::arg("kernel_radius") = 4.0f, py::arg("curvature_threshold") = 0.0f,
-        py::arg("level2_tolerance") = trilevel::Params{}.level2_tolerance, py::arg("memory_limit") = 0, py::arg("level_hysteresis") = 0.0f,
-        py::arg("crack_closing") = "collapse", py::arg("remove_components_below") = 0.0f, py::arg("particle_box") = py::none(),
-        py::arg("clip_box") = py::none(), py::arg("smooth") = false, py::arg("smooth_iterations") = 0,
-        py::arg("sliver_cleanup") = false, py::arg("normals") = py::none(), py::arg("attributes") = py::none(), py::arg("return_levels") = false);
+        py::arg("positions"), py::arg("particle_radius"), py::kw_only(), keyword("mode"), keyword("cell"),
+        keyword("kernel_radius"), keyword("curvature_threshold"), keyword("level2_tolerance"), keyword("memory_limit"),
+        keyword("level_hysteresis"), keyword("crack_closing"), keyword("remove_components_below"), keyword("particle_box"),
+        keyword("clip_box"), keyword("smooth"), keyword("smooth_iterations"), keyword("sliver_cleanup"), keyword("normals"),
+        py::arg("attributes") = py::none(), py::arg("return_levels") = false);
     std::apply([&](auto... a) {
         cls.def("reconstruct",
                 [](PyReconstructor& rec, const Array<float>& positions, float particle_radius, Option... option) {
@@ -310,50 +341,72 @@ void define_reconstruct(py::class_<PyReconstructor>& cls, py::module_& m, const 
     }, args);
 }
 
-constexpr const char* kReconstructDoc = R"(Reconstructs the closed surface mesh of a particle set.
+/// A table default as Python writes it: 'adaptive', 4.0, None, False.
+std::string python_text(const trilevel::ParamValue& v) {
+    if (std::holds_alternative<std::monostate>(v)) return "None";
+    if (const bool* b = std::get_if<bool>(&v)) return *b ? "True" : "False";
+    if (const std::string* s = std::get_if<std::string>(&v)) return "'" + *s + "'";
+    std::string text = trilevel::param_value_text(v);
+    if (std::holds_alternative<float>(v) && text.find_first_of(".en") == std::string::npos) text += ".0";
+    return text;
+}
 
-positions: (n, 3) array of particle centres, world units (float32 C-contiguous arrays are read in
-    place, anything else is converted to that first).
-particle_radius: r, half the rest spacing of the particles, world units; required, > 0.
-mode: "adaptive" (3-level grid: cells of 2r on flat water, r on curved and splashing water) or
-    "uniform" (cells of `cell` everywhere).
-cell: uniform mode: marching-cubes cell size in multiples of r; 4/cell must be an integer.
-kernel_radius: SPH kernel support R in multiples of r, in [1, 16].
-curvature_threshold: adaptive mode: mean cell curvature from which a coarse cell is meshed with
-    cells of r; 0 picks the calibrated default (trilevel.default_curvature_threshold()).
-level2_tolerance: adaptive mode: also mesh with cells of r where the level-2 lattice misses the
-    field at a cube centre by more than this many r, in cells whose curvature is not clearly flat
-    (CLI --level2-tolerance; default 0.32, as the library's); 0 = off.
-memory_limit: budget in bytes for the largest allocations; 0: the device's and host's limits.
-level_hysteresis: adaptive mode, frame sequences on one Reconstructor: a coarse cell keeps its
-    previous frame's level until its curvature passes the threshold by this fraction of it, and
-    the level-2 check's tolerance is held the same way (times 1 - h or 1 + h), in [0, 1); 0 (the
-    default, as the library's) makes every call independent of the previous one.
-    The CLI uses 0.2 (--level-hysteresis). stats["level_flips"] reports the level changes.
-crack_closing: adaptive mode: "collapse" (the default: crack patches, then the cracks' inner
-    crossings merged into the level-2 crossings, two triangles fewer each) or "patches" (the
-    patches alone, as the paper closes cracks); CLI --crack-closing.
-remove_components_below: drop the connected parts of the mesh that enclose less than this many
-    particle volumes, N (2r)^3, by |volume| (a small closed cavity is filled too); 0 (the default)
-    = off. stats["components_removed"] counts them (CLI --remove-components-below).
-particle_box: None or (x0, y0, z0, x1, y1, z1) in world units: the particles outside are ignored,
-    with their attributes (bounds inclusive), as if they had not been given; stats["particles"]
-    still counts all, stats["particles_outside_box"] those ignored (CLI --particle-box).
-clip_box: None or (x0, y0, z0, x1, y1, z1): the surface is cut at this box and closed there with
-    flat caps (triangle kind 2, stats["clip_cap_triangles"]); the mesh stays closed and every
-    vertex lies in the box. A box without fluid gives empty arrays (CLI --clip-box).
-smooth: smooth the mesh for rendering (CLI --smooth): particle-weighted Laplacian smoothing that
-    keeps each component's volume and the mesh closed, with sliver cleanup; normals="gradient"
-    then gives the smoothed mesh's area-weighted normals. smooth_iterations: its Laplacian steps
-    (0: the default, 12; CLI --smooth-iterations). sliver_cleanup: collapse the needle triangles
-    alone (CLI --sliver-cleanup; on with smooth).
-normals: None, "gradient" (unit gradient of the scalar field: the smooth surface's normal) or
-    "area" (area-weighted triangle normals): adds per-vertex normals to the result.
-attributes: {name: array} of per-particle values, (n,) for scalars or (n, 3) for vectors (copied,
+/// `text` wrapped at 100 columns, the lines after the first indented by 4 (docstring paragraphs).
+std::string wrapped(const std::string& text) {
+    std::string out, line;
+    std::size_t start = 0;
+    while (start < text.size()) {
+        std::size_t end = text.find(' ', start);
+        if (end == std::string::npos) end = text.size();
+        const std::string word = text.substr(start, end - start);
+        if (!line.empty() && line.size() + 1 + word.size() > 100) {
+            out += line + "\n";
+            line = "    ";
+        } else if (!line.empty() && line != "    ") line += ' ';
+        line += word;
+        start = end + 1;
+    }
+    return out + line + "\n";
+}
+
+/// One paragraph per keyword, from the parameter table: "keyword: help. Default: value (meaning);
+/// the CLI's: value" (the CLI's --help shows the same line).
+std::string keyword_docs(std::initializer_list<const char*> keywords) {
+    std::string out;
+    for (const char* k : keywords) {
+        const trilevel::ParamInfo& e = keyword_info(k);
+        std::string text = e.python + ": " + e.help + ".";
+        if (e.required) text += " Required.";
+        else {
+            text += " Default: " + python_text(e.read(trilevel::Params{}));
+            if (!e.default_means.empty()) text += " (" + e.default_means + ")";
+            if (!e.cli_default.empty()) text += "; the CLI's: " + e.cli_default;
+            text += ".";
+        }
+        out += wrapped(text);
+    }
+    return out;
+}
+
+/// The docstring of Reconstructor.reconstruct; its keywords' lines come from the parameter table.
+std::string reconstruct_doc() {
+    return "Reconstructs the closed surface mesh of a particle set.\n\n"
+           "positions: (n, 3) array of particle centres, world units (float32 C-contiguous arrays are read in\n"
+           "    place, anything else is converted to that first).\n" +
+           keyword_docs({"particle_radius", "mode", "cell", "kernel_radius", "curvature_threshold", "level2_tolerance",
+                         "memory_limit", "level_hysteresis", "crack_closing", "remove_components_below", "particle_box",
+                         "clip_box", "smooth", "smooth_iterations", "sliver_cleanup", "normals"}) +
+           R"(attributes: {name: array} of per-particle values, (n,) for scalars or (n, 3) for vectors (copied,
     converted to float32, finite): adds them interpolated at the vertices (Shepard-normalised SPH
     weights; a constant attribute stays exactly constant).
 return_levels: also return vertex_level ((m,) uint8, 2 or 3) and triangle_kind ((k,) uint8:
     0 level 2, 1 level 3, 2 patch).
+
+Boxes are sequences of six numbers or None. curvature_threshold 0 picks
+trilevel.default_curvature_threshold(). Successive calls on one Reconstructor are frames of one
+sequence for level_hysteresis; stats["level_flips"] reports the level changes, and
+stats["components_removed"], stats["particles_outside_box"] and stats["clip_cap_triangles"] what
+the other options did.
 
 Returns (vertices, triangles, stats): vertices (m, 3) float32 in world units, triangles (k, 3)
 uint32 vertex indices, counter-clockwise seen from outside, and stats, a dict with the keys of the
@@ -361,6 +414,7 @@ CLI's --stats JSON. The options add outputs after these, in this order (like num
 return_* flags): vertex_level and triangle_kind (return_levels), normals ((m, 3) float32, unit,
 outward; when normals is given), attributes ({name: (m,) or (m, 3) float32}, in the input's order;
 when attributes is given). Raises trilevel.Error with a one-line message on bad input or resources.)";
+}
 
 }  // namespace
 
@@ -383,24 +437,27 @@ PYBIND11_MODULE(_trilevel, m) {
              "kernel_radius, mode or cell resets the history too.")
         .def_property_readonly("device", [](const PyReconstructor& r) { return device_dict(r.rec.device()); },
                                "The OpenCL device in use, as a dict like the entries of trilevel.devices().");
+    static const std::string method_doc = reconstruct_doc();
     static const std::string one_shot_doc =
-        std::string(kReconstructDoc) +
+        method_doc +
         "\n\ndevice: as for Reconstructor. For frame sequences, reuse a trilevel.Reconstructor instead: it "
         "compiles the kernels once (and remembers the levels for level_hysteresis).";
-    define_reconstruct(cls, m, kReconstructDoc, one_shot_doc.c_str(), static_cast<OptionTypes*>(nullptr));
+    define_reconstruct(cls, m, method_doc.c_str(), one_shot_doc.c_str(), static_cast<OptionTypes*>(nullptr));
 
-    py::class_<PyFramePipeline>(m, "FramePipeline", R"(Meshes a sequence's frames on a worker thread while the caller
+    static const std::string pipeline_doc = R"(Meshes a sequence's frames on a worker thread while the caller
 produces the next (a simulator steps it): push(positions) hands frame k over and returns once frame
 k - 1 is meshed, with the frames finished so far. The meshes, stats and level history are those of
 calling reconstructor.reconstruct frame by frame with the same options (bit for bit). One input and
 one mesh more than one frame at a time are alive; memory_limit counts them.
 
 reconstructor: a trilevel.Reconstructor, not to be used otherwise until finish().
-particle_radius and the keyword options: as for reconstruct (no attributes or return_levels).
-
+)" + keyword_docs({"particle_radius", "mode", "cell", "kernel_radius", "curvature_threshold", "level2_tolerance",
+                   "memory_limit", "level_hysteresis", "crack_closing", "normals"}) +
+                                             R"(
 push(positions) and finish() return lists of (index, vertices, triangles, stats[, normals]) in frame
 order (index: 0 for the first push), or (index, None, None, message) for a frame that failed (the
-next frames go on). finish() waits for every frame; no push after it.)")
+next frames go on). finish() waits for every frame; no push after it.)";
+    py::class_<PyFramePipeline>(m, "FramePipeline", pipeline_doc.c_str())
         .def(py::init([](PyReconstructor& rec, float particle_radius, std::string mode, float cell, float kernel_radius,
                          float curvature_threshold, float level2_tolerance, std::uint64_t memory_limit, float level_hysteresis,
                          std::string crack_closing, std::optional<std::string> normals) {
@@ -416,14 +473,30 @@ next frames go on). finish() waits for every frame; no push after it.)")
                  o.normals = std::move(normals);
                  return std::make_unique<PyFramePipeline>(rec, particle_radius, o);
              }),
-             py::arg("reconstructor"), py::arg("particle_radius"), py::kw_only(), py::arg("mode") = "adaptive",
-             py::arg("cell") = 1.0f, py::arg("kernel_radius") = 4.0f, py::arg("curvature_threshold") = 0.0f,
-             py::arg("level2_tolerance") = trilevel::Params{}.level2_tolerance, py::arg("memory_limit") = 0,
-             py::arg("level_hysteresis") = 0.0f, py::arg("crack_closing") = "collapse", py::arg("normals") = py::none(),
+             py::arg("reconstructor"), py::arg("particle_radius"), py::kw_only(), keyword("mode"), keyword("cell"),
+             keyword("kernel_radius"), keyword("curvature_threshold"), keyword("level2_tolerance"), keyword("memory_limit"),
+             keyword("level_hysteresis"), keyword("crack_closing"), keyword("normals"),
              py::keep_alive<1, 2>())
         .def("push", &PyFramePipeline::push, py::arg("positions"),
              "Hands the next frame's (n, 3) positions over (copied); returns the frames finished so far.")
         .def("finish", &PyFramePipeline::finish, "Waits for every frame; returns the frames not yet returned.");
+
+    m.def("_parameter_table", [] {
+        py::list out;
+        for (const auto& e : trilevel::param_table()) {
+            py::dict d;
+            d["field"] = e.field;
+            d["cli"] = e.cli;
+            d["python"] = e.python;
+            d["help"] = e.help;
+            d["required"] = e.required;
+            d["default"] = e.required ? py::object(py::none()) : default_object(e.read(trilevel::Params{}));
+            d["default_means"] = e.default_means;
+            d["cli_default"] = e.cli_default;
+            out.append(d);
+        }
+        return out;
+    }, "The parameter table (trilevel/params_table.hpp) that the keywords' defaults and docs come from, for tests.");
 
     m.def("devices", [] {
         py::list out;

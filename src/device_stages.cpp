@@ -303,8 +303,7 @@ std::size_t estimate_points(const std::vector<CoarseCell>& cells, const std::vec
         // neighbour. Underestimates only cost a rehash (the table grows past FinePoints::kMaxLoad).
         total += side * side * side + side * side / 2;
         // Refined midpoints of crossed edges (edge_refinement.hpp): about 2 a level-2 cell on the
-        // dam-break frames (x512: 11.7 unique points a level-2 cell in all). 2 side^2 (8) here made
-        // the x512 table twice the size it needed (2^25 slots, 400 MB, for 7.2 M points).
+        // dam-break frames; more here oversizes the largest table (bench/RESULTS-implementation.md).
         if (c.level == 2) total += side * side / 2;
     }
     return total;
@@ -346,8 +345,7 @@ void grow_fine_points(OpenCLRuntime& rt, FinePoints& p, std::size_t capacity) {
 }
 
 /// Grows the table to FinePoints::kTargetLoad when `keys` points would pass FinePoints::kMaxLoad
-/// of it. The table is sized to what it holds, not to a power of two (x64: 4.6 M slots for 3.2 M
-/// points, not 8.4 M).
+/// of it. The table is sized to what it holds, not to a power of two (bench/RESULTS-implementation.md).
 void ensure_fine_room(OpenCLRuntime& rt, FinePoints& p, std::size_t keys) {
     if (double(keys) > FinePoints::kMaxLoad * double(p.hash.capacity)) grow_fine_points(rt, p, capacity_for(keys, FinePoints::kTargetLoad));
 }

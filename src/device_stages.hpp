@@ -76,10 +76,9 @@ struct FinePoints {
     /// The table is sized to load kTargetLoad of what it must hold and grows only when it would
     /// hold more than kMaxLoad of its slots. The headroom between the two takes the points that the
     /// later passes add (band closure, edge midpoints) without a rehash, which holds both tables at
-    /// once. Beyond docs/design.md §5 (load <= 0.5): this table is the largest device allocation, and at
-    /// x64 load 0.7 instead of 0.5 took 21 MB off the peak (207 -> 186 MB) at the same stage times
-    /// (7 interleaved runs); 0.8 saved 7 MB more but the host lookups of triangulation ran 15%
-    /// slower. The other tables keep load 0.5.
+    /// once. Beyond docs/design.md §5 (load <= 0.5): this table is the largest device allocation, so a
+    /// higher load lowers the peak; 0.8 slowed the triangulation's lookups (bench/RESULTS-implementation.md).
+    /// The other tables keep load 0.5.
     static constexpr double kMaxLoad = 0.8;
     static constexpr double kTargetLoad = 0.7;
     DeviceHash hash;      ///< keys in `layout` (4 or 8 bytes a slot)

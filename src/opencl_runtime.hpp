@@ -45,8 +45,8 @@ public:
 
     /// Work-group size for 1-D launches (run), at most what a kernel allows; 0 lets the driver choose.
     /// TRILEVEL_WORK_GROUP overrides the default, kDefaultWorkGroup: given the choice, PoCL takes the
-    /// largest divisor of the global size, which is 1 for a prime particle count (2,216,047 at x64):
-    /// a work-group per item, unvectorised, each paying a launch. 256 made those kernels 1.4x faster.
+    /// largest divisor of the global size, which is 1 for a prime particle count: a work-group per
+    /// item, unvectorised, each paying a launch (bench/RESULTS-implementation.md).
     static constexpr std::size_t kDefaultWorkGroup = 256;
 
     /// Enqueues `name` over `global` work-items (rounded up to the work-group size), records its event.

@@ -2,12 +2,12 @@
 // does not compile the kernels again.
 //
 // Why our own cache when drivers keep theirs: PoCL's kernel cache is found by hashing the
-// *preprocessed* source, so every start still runs clang's preprocessor over all kernels (db23:
-// 30 ms of a 0.17 s run, and 3.6 MB of peak memory). A program created from its binary skips that.
+// *preprocessed* source, so every start still runs clang's preprocessor over all kernels (a large
+// share of a small run: bench/RESULTS-implementation.md). A program created from its binary skips that.
 // A cache is never a reason to fail: a missing, unreadable, corrupt or stale entry only means the
 // program is built from source again, and a failed write is ignored.
 //
-// Every new driver, trilevel version or key width adds an entry (about 0.6 MB on PoCL), so the
+// Every new driver, trilevel version or key width adds an entry, so the
 // directory is kept to a size limit, least recently used entries out first: a load renews an
 // entry's modification time, and each store prunes.
 #pragma once

@@ -163,7 +163,7 @@ std::vector<CoarseCell> merge_cells(const std::vector<CoarseCell>& a, const std:
 }
 
 /// Unique fine points by level: all coordinates even = on the level-2 lattice. A pass over the
-/// whole table, so in parallel (serial, it was 25 ms of x64's triangulation stage at 16 threads).
+/// whole table, so in parallel (serial, it showed in the triangulation stage's time).
 void count_points(const FinePointMap& map, Stats& s) {
     using Counts = std::pair<std::size_t, std::size_t>;  // level 2, level 3
     const Counts c = tbb::parallel_reduce(

@@ -7,11 +7,8 @@ namespace trilevel::constants {
 /// Surface particle test (docs/design.md §3.1): |n_i| * R > kSurfaceGradient, with n_i the colour-field
 /// gradient with poly6 weights and particle volume V = (2r)^3. Calibrated on jittered lattice
 /// blocks (tests/test_reference_stages.cpp, "[calibration]"): every particle within one spacing of a
-/// face is surface, none deeper than R is. Measured |n_i| R with R = 4r, jitter 2% of the spacing:
-/// outer layer (centres r below the fluid boundary) 1.01 .. 1.23, every deeper layer 0.001 .. 0.09
-/// (the second layer's R-neighbourhood is complete on a lattice); 0.55 is the middle of that gap.
-/// Jitter 10%: outer layer >= 0.79, deeper <= 0.34. On splashsurf's dam_break frame 23 (r = 0.025)
-/// |n| R is bimodal: most particles below 0.2, a valley from 0.3 to 0.9, the surface mode 1.0..1.4.
+/// face is surface, none deeper than R is; 0.55 is the middle of the gap between the outer layer's
+/// values and the deeper ones' (docs/calibration.md, "Measurements behind the stage constants").
 constexpr float kSurfaceGradient = 0.55f;
 
 /// Splash particle: fewer than this many neighbours within R, itself excluded (paper §3).
@@ -20,8 +17,7 @@ constexpr int kSplashNeighbours = 3;
 /// Thin particle: fewer than this many neighbours within R. Small clusters, filaments and sheets
 /// one particle thick vanish or break on a lattice of 2r, so cells near them are level 3 like
 /// splash cells (paper Fig. 1: "cells around the isolated pieces are always level-3"). Calibrated on
-/// the dam-break frames: 5 lost a 4-particle cluster of the x8 resampling at level 2 (23 r off the
-/// uniform r mesh), 8 turned 25% more cells level 3 than 6 for no gain in accuracy.
+/// the dam-break frames: 5 lost a small cluster, 8 promoted more cells for no accuracy (docs/calibration.md).
 constexpr int kThinNeighbours = 6;
 
 /// Neighbours closer than kSameSpot * R count as the same spot, not as neighbours, in the splash and
@@ -34,18 +30,15 @@ constexpr float kSameSpot = 1.0f / 4096.0f;
 /// splash particle (paper §3, after Akinci et al. 2012: an AABB of 4r around each surface particle).
 constexpr float kSurfaceBoxHalf = 2.0f;
 
-/// First capacity of the coarse cell hash, per surface or splash particle. Large frames have 0.25-0.31
-/// coarse cells per surface particle (the dam break resampled x8 to x512), so at 3/4 their table
-/// starts at load <= 1/2 and is filled once; small splashy scenes (0.4-8 cells per particle) grow it
-/// (docs/design.md §5). Twice the particle count, as before, left x512's table at load 0.15, and every
-/// per-cell buffer of stage 4 and every host read of them is as long as the table.
+/// First capacity of the coarse cell hash, per surface or splash particle: large frames have about
+/// 0.3 coarse cells per surface particle, so their table starts at load <= 1/2 and is filled once;
+/// small splashy scenes grow it (docs/design.md §5). Not larger: every per-cell buffer of stage 4
+/// and every host read of them is as long as the table (docs/calibration.md).
 constexpr float kCoarseCellsPerSurfaceParticle = 0.75f;
 
 /// First capacity of the particle-bin hash, per particle (rounded up to a power of two). A bin of
-/// edge R = 4r holds 8 particles of a lattice of spacing 2r; the dam-break frames have 7 (the
-/// original frame) to 15 (x512) particles per occupied bin, so the table starts at load 0.14-0.5
-/// and sparse scenes grow it once. A quarter, as before, left x512's table at load 0.14: 8.4 M
-/// slots of keys, counts and ranges (168 MB) for 1.2 M bins.
+/// edge R = 4r holds 8 particles of a lattice of spacing 2r, so the table starts at load 0.14-0.5 on
+/// the dam-break frames and sparse scenes grow it once (docs/calibration.md).
 constexpr float kBinSlotsPerParticle = 0.125f;
 
 /// Splash cells: surface cells overlapping x_i ± kSplashBoxHalf * r around a splash or thin particle
@@ -57,10 +50,8 @@ constexpr float kSplashBoxHalf = 2.0f;
 /// Passes of the 3x3x3 block mean over the cell curvatures before the threshold (beyond the paper;
 /// kernels/curvature.cl, smooth_cell_curvature). One pass left level regions ragged where the
 /// curvature is noisy (disordered particles: flat water of the x8 resampling sits at about the
-/// threshold); three (an effective 7x7x7 tent) made them compact. Measured against one pass, at the
-/// default threshold: crack patches on x8 1.45% -> 0.85% of all triangles, x64 2.2% -> 1.5%, db23
-/// 1.56% -> 1.37%; triangles x8 +2.6%, db23 -1%, x64 -2%; p99 deviation from the uniform r mesh x8
-/// 0.37 -> 0.30 r, db23 and x64 unchanged (docs/calibration.md, "Levels and choosing the threshold").
+/// threshold); three (an effective 7x7x7 tent) made them compact, with fewer crack patches
+/// (docs/calibration.md, "Measurements behind the stage constants").
 constexpr int kCurvatureSmoothingPasses = 3;
 static_assert(kCurvatureSmoothingPasses >= 1, "the last pass writes the cell curvature the levels read");
 
@@ -70,22 +61,17 @@ static_assert(kCurvatureSmoothingPasses >= 1, "the last pass writes the cell cur
 constexpr double kMeshBytesPerFinePoint = 40.0;
 
 /// The level-2 check (host/level2_check.hpp) examines only level-2 cells whose cell curvature is
-/// at least this: below it the particles say flat and ordered and the level-2 lattice is trusted.
-/// On the dam-break frame 23 (median cell curvature 0.56) its field is rippled at the particle
-/// spacing, so cube centres miss the lattice's value by 0.3-0.4 r where the meshes agree (p99 0.2
-/// r): checked everywhere at 0.3 r it promoted 12% more cells for no accuracy the target needs
-/// (triangles 0.384 -> 0.435 of uniform r). Disordered (resampled) flat water sits at curvature
-/// about 4 (x8: median 4.2), so there the check still decides. Measured with the check at 0.3 r
-/// and threshold 16: x8 0.399 both ways (p99 0.42 r), frame 23 0.435 everywhere, 0.389 with this
-/// gate (docs/calibration.md, "Levels and choosing the threshold").
+/// at least this: below it the particles say flat and ordered and the level-2 lattice is trusted
+/// (on ordered frames the field ripples at the particle spacing, and checking there only promotes
+/// cells); disordered flat water sits above it, so there the check still decides
+/// (docs/calibration.md, "Levels and choosing the threshold" and "Measurements behind the stage constants").
 constexpr float kLevel2CheckCurvature = 3.0f;
 
 /// Calibrated default of the curvature threshold (docs/calibration.md, "Levels and choosing the threshold"),
 /// with the level-2 check on at its default tolerance (Params::level2_tolerance, 0.32 r): cells above
 /// it are level 3 outright, cells from kLevel2CheckCurvature to it are checked. The check measures
-/// the lattice error itself, so the threshold only sends clearly curved cells ahead: x8 resampling
-/// 0.384 of uniform r's triangles at p99 0.447 r (16: 0.380, the same p99); frame 23 0.389 either
-/// way. Without the check (tolerance 0) 4.5 is the value that keeps p99 within 0.5 r on x8.
+/// the lattice error itself, so the threshold only sends clearly curved cells ahead (without the
+/// check, tolerance 0, a lower threshold is needed: docs/calibration.md).
 constexpr float kDefaultCurvatureThreshold = 8.0f;
 
 /// The scalar field's support ends where q = 1 - s^2 falls to kSupportCut (s = |x - x_j| / R above

@@ -32,7 +32,7 @@ bool by_key(const CoarseCell& a, const CoarseCell& b) { return lattice::pack(a.c
 }  // namespace
 
 TEST_CASE("band closure: a plane through one cell asks for its four side neighbours", "[mesh]") {
-    const LatticeFrame frame{glm::vec3(0.0f), 1.0f, 4};
+    const LatticeFrame frame{glm::vec3(0.0f), 1.0f, 4, {}};
     for (std::uint8_t level : {std::uint8_t(2), std::uint8_t(3)}) {
         const std::vector<CoarseCell> cells = {{{5, 5, 5}, level}};
         const auto field = test::make_field(cells, frame, [](glm::ivec3 p) { return float(p.z) - 21.5f; });
@@ -48,7 +48,7 @@ TEST_CASE("band closure: a plane through one cell asks for its four side neighbo
 }
 
 TEST_CASE("band closure: largest triggering level, present cells skipped, domain error", "[mesh]") {
-    const LatticeFrame frame{glm::vec3(0.0f), 1.0f, 4};
+    const LatticeFrame frame{glm::vec3(0.0f), 1.0f, 4, {}};
     // Two cells with a gap along x, both crossed by a plane z = const: (4,3,3) is asked for by both.
     const std::vector<CoarseCell> cells = {{{3, 3, 3}, 2}, {{5, 3, 3}, 3}};
     const auto field = test::make_field(cells, frame, [](glm::ivec3 p) { return float(p.z) - 13.5f; });
@@ -82,7 +82,7 @@ TEST_CASE("band closure: largest triggering level, present cells skipped, domain
 }
 
 TEST_CASE("band closure iterated to a fixed point closes the mesh of a sphere seeded by a few cells", "[mesh]") {
-    const LatticeFrame frame{glm::vec3(1.0f, 2.0f, 3.0f), 0.5f, 4};
+    const LatticeFrame frame{glm::vec3(1.0f, 2.0f, 3.0f), 0.5f, 4, {}};
     const glm::dvec3 centre(40.3, 39.7, 40.1);
     const double radius = 13.0;
     auto f = [&](glm::ivec3 p) { return float(glm::length(glm::dvec3(p) - centre) - radius); };
@@ -111,7 +111,7 @@ TEST_CASE("band closure iterated to a fixed point closes the mesh of a sphere se
 }
 
 TEST_CASE("band closure iterated on mixed levels gives closed meshes", "[mesh]") {
-    const LatticeFrame frame{glm::vec3(0.0f), 1.0f, 4};
+    const LatticeFrame frame{glm::vec3(0.0f), 1.0f, 4, {}};
     for (int seed = 0; seed < 40; ++seed) {
         std::mt19937 rng(std::uint32_t(seed) + 1000u);
         const glm::dvec3 centre(40 + (rng() % 100) / 50.0, 40 + (rng() % 100) / 50.0, 40 + (rng() % 100) / 50.0);
@@ -146,7 +146,7 @@ TEST_CASE("band closure iterated on mixed levels gives closed meshes", "[mesh]")
 
 TEST_CASE("transition continuity: uncrossed midpoints interpolated, crossed ones and the rest kept, idempotent",
           "[mesh]") {
-    const LatticeFrame frame{glm::vec3(0.0f), 1.0f, 4};
+    const LatticeFrame frame{glm::vec3(0.0f), 1.0f, 4, {}};
     const std::vector<CoarseCell> cells = {{{1, 1, 1}, 2}, {{2, 1, 1}, 3}, {{2, 2, 1}, 3}, {{1, 2, 2}, 3}};
     // Level-2 points (all coordinates even) inside where x + y + z <= 21, so that some boundary
     // edges are crossed and some not; the other points random, of either sign.
@@ -179,7 +179,7 @@ TEST_CASE("transition continuity: uncrossed midpoints interpolated, crossed ones
 }
 
 TEST_CASE("transition continuity matches a brute-force reference on random mixed blocks", "[mesh]") {
-    const LatticeFrame frame{glm::vec3(0.0f), 1.0f, 4};
+    const LatticeFrame frame{glm::vec3(0.0f), 1.0f, 4, {}};
     const int cs = frame.coarse_steps;
     for (int seed = 0; seed < 200; ++seed) {
         std::mt19937 rng(std::uint32_t(seed) + 77u);

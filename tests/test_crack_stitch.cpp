@@ -69,7 +69,7 @@ float random_value(std::mt19937& rng, int kind, glm::ivec3 p) {
 }
 
 struct AdaptiveCase {
-    LatticeFrame frame{glm::vec3(0.0f), 1.0f, 4};
+    LatticeFrame frame{glm::vec3(0.0f), 1.0f, 4, {}};
     std::vector<CoarseCell> cells;
     FinePointMap field;
 };
@@ -185,7 +185,7 @@ TEST_CASE("adaptive property test with coarse cells of 2 and 6 steps", "[mesh]")
 
 TEST_CASE("crack stitching: one level-2 cell beside one level-3 cell", "[mesh]") {
     // A saddle-like field on the shared face: ambiguous level-2 face, inner crossings on level 3.
-    const LatticeFrame frame{glm::vec3(0.0f), 1.0f, 4};
+    const LatticeFrame frame{glm::vec3(0.0f), 1.0f, 4, {}};
     for (int order = 0; order < 2; ++order) {
         std::vector<CoarseCell> cells = {{{1, 1, 1}, std::uint8_t(order ? 3 : 2)}, {{2, 1, 1}, std::uint8_t(order ? 2 : 3)}};
         const glm::ivec3 lo(4, 4, 4), hi(12, 8, 8);
@@ -204,7 +204,7 @@ TEST_CASE("crack stitching: one level-2 cell beside one level-3 cell", "[mesh]")
 }
 
 TEST_CASE("adaptive sphere with random levels: closed, outward, same output on 1 and 2 threads", "[mesh]") {
-    const LatticeFrame frame{glm::vec3(-1.0f, 0.25f, 2.0f), 0.125f, 4};
+    const LatticeFrame frame{glm::vec3(-1.0f, 0.25f, 2.0f), 0.125f, 4, {}};
     const glm::dvec3 centre(50.3, 49.6, 50.2);
     const double radius = 30.0;
     std::vector<CoarseCell> cells;

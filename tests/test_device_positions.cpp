@@ -40,7 +40,8 @@ struct Simulator {
         cl_int err = CL_SUCCESS;
         context = clCreateContext(nullptr, 1, &device, nullptr, nullptr, &err);
         REQUIRE(err == CL_SUCCESS);
-        queue = clCreateCommandQueue(context, device, props, &err);
+        const cl_queue_properties queue_props[] = {CL_QUEUE_PROPERTIES, props, 0};
+        queue = clCreateCommandQueueWithProperties(context, device, queue_props, &err);
         REQUIRE(err == CL_SUCCESS);
     }
     ~Simulator() {
@@ -198,7 +199,8 @@ TEST_CASE("Device positions: bad layouts, foreign buffers, non-finite coordinate
     CHECK(same_mesh(rec.reconstruct(d, p), host.reconstruct(good.data(), n, p)));
 
     cl_int err = CL_SUCCESS;
-    cl_command_queue ooo = clCreateCommandQueue(sim.context, sim.device, CL_QUEUE_OUT_OF_ORDER_EXEC_MODE_ENABLE, &err);
+    const cl_queue_properties ooo_props[] = {CL_QUEUE_PROPERTIES, CL_QUEUE_OUT_OF_ORDER_EXEC_MODE_ENABLE, 0};
+    cl_command_queue ooo = clCreateCommandQueueWithProperties(sim.context, sim.device, ooo_props, &err);
     if (err == CL_SUCCESS) {
         CHECK_THROWS_WITH(trilevel::Reconstructor(sim.context, sim.device, ooo),
                           "the OpenCL command queue executes out of order; give an in-order queue (or none: one is made)");

@@ -15,7 +15,7 @@ using namespace trilevel;
 
 namespace {
 
-const LatticeFrame kFrame{glm::vec3(0.0f), 1.0f, 4};
+const LatticeFrame kFrame{glm::vec3(0.0f), 1.0f, 4, {}};
 
 /// A row of five level-2 cells along x at y = z = 5, then a level-3 cell, and a level-2 cell two
 /// rows away in y (outside every 3x3x3 block of the row's middle cell).

@@ -161,7 +161,7 @@ TEST_CASE("uniform blocks of random fields give closed oriented meshes", "[mesh]
                 std::mt19937 rng(std::uint32_t(seed * 131 + cs * 7 + level));
                 const glm::ivec3 dims(1 + int(rng() % 3), 1 + int(rng() % 3), 1 + int(rng() % 3));
                 const glm::ivec3 off(int(rng() % 3), int(rng() % 3), int(rng() % 3));
-                const LatticeFrame frame{glm::vec3(0.5f, -1.0f, 2.0f), 0.25f, cs};
+                const LatticeFrame frame{glm::vec3(0.5f, -1.0f, 2.0f), 0.25f, cs, {}};
                 const auto cells = test::block_cells(dims, off, level);
                 const bool ints = seed % 2 == 0;  // small integers: many exact zeros
                 std::uniform_real_distribution<float> real(-1.0f, 1.0f);
@@ -199,7 +199,7 @@ struct SphereSetup {
 // Cells whose box meets the sphere |x - c| = R (lattice units), all at `level`.
 SphereSetup sphere_setup(double radius, int cs, std::uint8_t level) {
     SphereSetup s;
-    s.frame = {glm::vec3(-3.0f, 1.0f, 0.5f), 0.5f, cs};
+    s.frame = {glm::vec3(-3.0f, 1.0f, 0.5f), 0.5f, cs, {}};
     s.radius = radius;
     const int nc = int(std::ceil((2 * radius + 4) / cs)) + 2;
     const glm::dvec3 centre(nc * cs / 2.0 + 0.3, nc * cs / 2.0 - 0.2, nc * cs / 2.0 + 0.1);
@@ -269,7 +269,7 @@ TEST_CASE("the crossed level-2 midpoints: every crossed edge of every level-2 ce
     // Three level-2 cells around the line x = 8, y = 4 (cs = 4), a plane at z = 5.3: it crosses
     // the z edges from z = 4 to 6 at every even (x, y) of the cells' footprint, 21 columns.
     SphereSetup s;
-    s.frame = {glm::vec3(0.0f), 0.5f, 4};
+    s.frame = {glm::vec3(0.0f), 0.5f, 4, {}};
     s.cells = {{{2, 0, 1}, 2}, {{1, 1, 1}, 2}, {{2, 1, 1}, 2}};
     s.field = test::make_field(s.cells, s.frame, [](glm::ivec3 p) { return float(p.z) - 5.3f; });
     std::vector<std::uint64_t> keys = edge_refinement_points(s.cells, s.frame, s.field);

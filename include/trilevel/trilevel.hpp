@@ -83,9 +83,8 @@ struct Params {
                                        ///< level 2 stays 2 up to threshold (1 + h)); the level-2 check's
                                        ///< tolerance is held likewise (times 1 - h for a cell that was level 3,
                                        ///< 1 + h for one that was level 2). In [0, 1), 0 = off (each call
-                                       ///< independent of the previous). The CLI uses 0.2 for sequences: on the
-                                       ///< generated falling-drop it removes 81% of the level changes with
-                                       ///< curvature alone, 58% with the default levels (docs/calibration.md, "Temporal coherence").
+                                       ///< independent of the previous). The CLI uses 0.2 for sequences
+                                       ///< (docs/calibration.md, "Temporal coherence").
     NormalMode normals = NormalMode::None; ///< per-vertex normals to compute (Mesh::normals)
     CrackClosing crack_closing = CrackClosing::Collapse;  ///< adaptive mode: see CrackClosing
     /// Particles outside this box (world units, bounds inclusive) are ignored, with their

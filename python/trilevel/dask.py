@@ -271,8 +271,17 @@ def reconstruct_frames(input_pattern: str, output_pattern: str, particle_radius:
     return [results[job.number] for job in jobs]
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """`python3 -m trilevel.dask`: the CLI's sequence options, on a dask.distributed cluster."""
+def _add_option(parser: argparse.ArgumentParser, keyword: str, **kwargs: Any) -> None:
+    """An option for a Reconstructor keyword, named and helped as the CLI's (the parameter table of
+    trilevel/params_table.hpp). Not given: None, and the keyword keeps the module's default."""
+    entry = next(e for e in _trilevel._parameter_table() if e["python"] == keyword)
+    shown = entry["default_means"] or entry["default"]
+    shown = f"{shown:g}" if isinstance(shown, float) else "none" if shown is None else shown
+    parser.add_argument(*entry["cli"].split(","), dest=keyword, default=None,
+                        help=f"{entry['help']} (default: {shown})", **kwargs)
+
+
+def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python3 -m trilevel.dask", description=(
         "Reconstructs the frames of a sequence on a dask.distributed cluster, one task per frame and one "
         "Reconstructor per worker process. Every frame is independent (level hysteresis 0)."))
@@ -288,23 +297,25 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--skip-existing", action="store_true", help="skip frames whose outputs exist (resume)")
     parser.add_argument("--retries", type=int, default=2, help="retries of a frame that raised (default 2)")
     parser.add_argument("--device", type=int, default=-1, help="OpenCL device index on the workers")
-    parser.add_argument("--mode", choices=["adaptive", "uniform"], default="adaptive")
-    parser.add_argument("--cell", type=float, default=1.0)
-    parser.add_argument("--kernel-radius", type=float, default=4.0)
-    parser.add_argument("--curvature-threshold", type=float, default=0.0)
-    parser.add_argument("--level2-tolerance", type=float, default=None)
-    parser.add_argument("--crack-closing", choices=["collapse", "patches"], default="collapse")
-    parser.add_argument("--memory-limit", type=int, default=0, help="bytes; 0: the device's and host's limits")
-    parser.add_argument("--normals", nargs="?", const="gradient", choices=["gradient", "area"], default=None)
+    _add_option(parser, "mode", choices=["adaptive", "uniform"])
+    _add_option(parser, "cell", type=float)
+    _add_option(parser, "kernel_radius", type=float)
+    _add_option(parser, "curvature_threshold", type=float)
+    _add_option(parser, "level2_tolerance", type=float)
+    _add_option(parser, "crack_closing", choices=["collapse", "patches"])
+    _add_option(parser, "memory_limit", type=int)
+    _add_option(parser, "normals", nargs="?", const="gradient", choices=["gradient", "area"])
     parser.add_argument("--attribute", action="append", default=[], help="particle attribute to interpolate")
     parser.add_argument("--color-levels", action="store_true")
     parser.add_argument("--drop-invalid", action="store_true")
     parser.add_argument("-q", "--quiet", action="store_true", help="report failures only")
-    a = parser.parse_args(argv)
-    options = dict(mode=a.mode, cell=a.cell, kernel_radius=a.kernel_radius, curvature_threshold=a.curvature_threshold,
-                   crack_closing=a.crack_closing, memory_limit=a.memory_limit, normals=a.normals)
-    if a.level2_tolerance is not None:
-        options["level2_tolerance"] = a.level2_tolerance
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """`python3 -m trilevel.dask`: the CLI's sequence options, on a dask.distributed cluster."""
+    a = _parser().parse_args(argv)
+    options = {k: getattr(a, k) for k in _OPTIONS if getattr(a, k) is not None}  # the others: Params{}'s
 
     def report(result: FrameResult) -> None:
         if result.status == "failed":

@@ -4,7 +4,7 @@
 // A gzip'd file is inflated only as far as the reader needs, so that a header claiming more
 // points than the compressed bytes could hold is an error before any large inflate. The point
 // data itself is inflated in one call by libdeflate where the build has it (about twice zlib's
-// speed; zlib took a tenth of a x64 reconstruction).
+// speed: bench/RESULTS-implementation.md).
 #include <algorithm>
 #include <cmath>
 #include <memory>

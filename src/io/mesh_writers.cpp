@@ -220,9 +220,8 @@ void append_base64(std::string& out, const unsigned char* p, std::size_t n) {
 /// One DataArray in VTK's compressed inline form (format="binary", header_type UInt64,
 /// vtkZLibDataCompressor): the base64 of the header [blocks, block size, last block size,
 /// compressed size of each block], then the base64 of the compressed blocks, encoded apart as
-/// VTK writes and reads them. Blocks of 1 MiB compressed at zlib's fastest level: on a mesh of
-/// 10,627 vertices (points, normals, connectivity, offsets) level 6 took 4.2 times as long for
-/// 2% fewer bytes (both 31% of the raw size).
+/// VTK writes and reads them. Blocks of 1 MiB compressed at zlib's fastest level: the default
+/// level takes several times as long for a few percent fewer bytes (bench/RESULTS-implementation.md).
 void write_xml_array(AtomicWriter& out, const std::string& path, const std::string& attributes, const void* data,
                      std::size_t bytes) {
     constexpr std::size_t kBlock = std::size_t(1) << 20;

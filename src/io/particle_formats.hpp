@@ -21,8 +21,8 @@ struct ReadRequest {
     bool keep_invalid = false;
     /// The string `data` refers to, when nothing reads it after the reader: a reader may then empty
     /// it once it holds everything it needs in another form (read_bgeo, once a gzip'd file is
-    /// inflated: at x512 the 181 MB file, the 284 MB inflated and the 213 MB positions were alive
-    /// at once, the run's peak). Null for data the caller keeps (the fuzz targets).
+    /// inflated: the file, the inflated data and the positions alive at once were a large run's
+    /// peak). Null for data the caller keeps (the fuzz targets).
     std::string* releasable = nullptr;
 };
 
