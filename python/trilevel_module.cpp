@@ -452,7 +452,8 @@ one mesh more than one frame at a time are alive; memory_limit counts them.
 
 reconstructor: a trilevel.Reconstructor, not to be used otherwise until finish().
 )" + keyword_docs({"particle_radius", "mode", "cell", "kernel_radius", "curvature_threshold", "level2_tolerance",
-                   "memory_limit", "level_hysteresis", "crack_closing", "normals"}) +
+                   "memory_limit", "level_hysteresis", "crack_closing", "remove_components_below", "particle_box",
+                   "clip_box", "smooth", "smooth_iterations", "sliver_cleanup", "normals"}) +
                                              R"(
 push(positions) and finish() return lists of (index, vertices, triangles, stats[, normals]) in frame
 order (index: 0 for the first push), or (index, None, None, message) for a frame that failed (the
@@ -460,7 +461,9 @@ next frames go on). finish() waits for every frame; no push after it.)";
     py::class_<PyFramePipeline>(m, "FramePipeline", pipeline_doc.c_str())
         .def(py::init([](PyReconstructor& rec, float particle_radius, std::string mode, float cell, float kernel_radius,
                          float curvature_threshold, float level2_tolerance, std::uint64_t memory_limit, float level_hysteresis,
-                         std::string crack_closing, std::optional<std::string> normals) {
+                         std::string crack_closing, float remove_components_below, std::optional<std::vector<double>> particle_box,
+                         std::optional<std::vector<double>> clip_box, bool smooth, int smooth_iterations, bool sliver_cleanup,
+                         std::optional<std::string> normals) {
                  ReconstructOptions o;
                  o.mode = std::move(mode);
                  o.cell = cell;
@@ -470,12 +473,20 @@ next frames go on). finish() waits for every frame; no push after it.)";
                  o.memory_limit = memory_limit;
                  o.level_hysteresis = level_hysteresis;
                  o.crack_closing = std::move(crack_closing);
+                 o.remove_components_below = remove_components_below;
+                 o.particle_box = std::move(particle_box);
+                 o.clip_box = std::move(clip_box);
+                 o.smooth = smooth;
+                 o.smooth_iterations = smooth_iterations;
+                 o.sliver_cleanup = sliver_cleanup;
                  o.normals = std::move(normals);
                  return std::make_unique<PyFramePipeline>(rec, particle_radius, o);
              }),
              py::arg("reconstructor"), py::arg("particle_radius"), py::kw_only(), keyword("mode"), keyword("cell"),
              keyword("kernel_radius"), keyword("curvature_threshold"), keyword("level2_tolerance"), keyword("memory_limit"),
-             keyword("level_hysteresis"), keyword("crack_closing"), keyword("normals"),
+             keyword("level_hysteresis"), keyword("crack_closing"), keyword("remove_components_below"),
+             keyword("particle_box"), keyword("clip_box"), keyword("smooth"), keyword("smooth_iterations"),
+             keyword("sliver_cleanup"), keyword("normals"),
              py::keep_alive<1, 2>())
         .def("push", &PyFramePipeline::push, py::arg("positions"),
              "Hands the next frame's (n, 3) positions over (copied); returns the frames finished so far.")

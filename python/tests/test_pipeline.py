@@ -38,6 +38,19 @@ class FramePipelineTest(unittest.TestCase):
             self.assertTrue(np.array_equal(t, et))
             self.assertEqual(stats.get("level_flips"), estats.get("level_flips"))
 
+    def test_post_processing_keywords_as_in_reconstruct(self):
+        box = (0.1, 0.0, 0.1, 0.9, 1.0, 0.9)
+        options = dict(smooth=True, clip_box=box, remove_components_below=8.0)
+        expected = [trilevel.Reconstructor().reconstruct(drop(f), 0.025, **options) for f in (0, 4)]
+        pipe = trilevel.FramePipeline(trilevel.Reconstructor(), 0.025, **options)
+        got = pipe.push(drop(0)) + pipe.push(drop(4)) + pipe.finish()
+        self.assertEqual(len(got), 2)
+        for (index, v, t, stats), (ev, et, estats) in zip(got, expected):
+            self.assertTrue(np.array_equal(v, ev))
+            self.assertTrue(np.array_equal(t, et))
+            self.assertTrue(stats["closed"])
+            self.assertTrue((v >= np.array(box[:3], np.float32) - 1e-6).all() and (v <= np.array(box[3:], np.float32) + 1e-6).all())
+
 
 if __name__ == "__main__":
     unittest.main()

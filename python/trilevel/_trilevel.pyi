@@ -134,6 +134,12 @@ class FramePipeline:
         memory_limit: int = 0,
         level_hysteresis: float = 0.0,
         crack_closing: Literal["collapse", "patches"] = "collapse",
+        remove_components_below: float = 0.0,
+        particle_box: Sequence[float] | None = None,
+        clip_box: Sequence[float] | None = None,
+        smooth: bool = False,
+        smooth_iterations: int = 0,
+        sliver_cleanup: bool = False,
         normals: Literal["gradient", "area"] | None = None,
     ) -> None: ...
     def push(self, positions: ArrayLike) -> list[tuple[Any, ...]]: ...
