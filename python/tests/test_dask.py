@@ -154,6 +154,17 @@ class DaskTest(unittest.TestCase):
         self.assertEqual(read(single), read(self.out("m", num(FRAMES - 1))))
         self.assertFalse([f for f in os.listdir(self.tmp) if ".tmp" in f])  # no temporary files left
 
+    def test_smoothing_and_clipping_reach_the_frames_as_in_the_cli(self):
+        box = "0.1,0.0,0.1,0.9,1.0,0.9"
+        code = trilevel.dask.main([self.pattern, "-r", str(R), "-o", os.path.join(self.tmp, "sm_{}.ply"), "--end", "1",
+                                   "--smooth", "--clip-box", box, "--scheduler", self.cluster.scheduler_address, "-q"])
+        self.assertEqual(code, 0)
+        for i in range(2):
+            expected = os.path.join(self.tmp, f"smcli_{num(i)}.ply")
+            cli("reconstruct", os.path.join(self.tmp, f"d_{num(i)}.xyz"), "-r", str(R), "-o", expected, "-q",
+                "--smooth", "--clip-box", box)
+            self.assertEqual(read(self.out("sm", num(i))), read(expected), f"frame {i}")
+
     def test_skip_existing_resumes(self):
         output = os.path.join(self.tmp, "r_{}.ply")
         first = trilevel.dask.reconstruct_frames(self.pattern, output, R, scheduler=self.client, end=2)

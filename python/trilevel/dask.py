@@ -48,7 +48,8 @@ __all__ = ["FrameJob", "FrameResult", "find_frames", "plan_frames", "reconstruct
 
 # Reconstructor keywords a frame may be given; level_hysteresis and return_levels are set here.
 _OPTIONS = ("mode", "cell", "kernel_radius", "curvature_threshold", "level2_tolerance", "memory_limit",
-            "crack_closing", "normals")
+            "crack_closing", "remove_components_below", "particle_box", "clip_box", "smooth", "smooth_iterations",
+            "sliver_cleanup", "normals")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -281,6 +282,17 @@ def _add_option(parser: argparse.ArgumentParser, keyword: str, **kwargs: Any) ->
                         help=f"{entry['help']} (default: {shown})", **kwargs)
 
 
+def _box(text: str) -> list[float]:
+    """X0,Y0,Z0,X1,Y1,Z1 as the CLI takes a box (the library checks the numbers)."""
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a box is six numbers X0,Y0,Z0,X1,Y1,Z1, got '{text}'") from None
+    if len(values) != 6:
+        raise argparse.ArgumentTypeError(f"a box is six numbers X0,Y0,Z0,X1,Y1,Z1, got {len(values)}")
+    return values
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python3 -m trilevel.dask", description=(
         "Reconstructs the frames of a sequence on a dask.distributed cluster, one task per frame and one "
@@ -304,6 +316,12 @@ def _parser() -> argparse.ArgumentParser:
     _add_option(parser, "level2_tolerance", type=float)
     _add_option(parser, "crack_closing", choices=["collapse", "patches"])
     _add_option(parser, "memory_limit", type=int)
+    _add_option(parser, "remove_components_below", type=float)
+    _add_option(parser, "particle_box", type=_box)
+    _add_option(parser, "clip_box", type=_box)
+    _add_option(parser, "smooth", action="store_const", const=True)
+    _add_option(parser, "smooth_iterations", type=int)
+    _add_option(parser, "sliver_cleanup", action="store_const", const=True)
     _add_option(parser, "normals", nargs="?", const="gradient", choices=["gradient", "area"])
     parser.add_argument("--attribute", action="append", default=[], help="particle attribute to interpolate")
     parser.add_argument("--color-levels", action="store_true")
@@ -316,6 +334,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     """`python3 -m trilevel.dask`: the CLI's sequence options, on a dask.distributed cluster."""
     a = _parser().parse_args(argv)
     options = {k: getattr(a, k) for k in _OPTIONS if getattr(a, k) is not None}  # the others: Params{}'s
+    if options.get("smooth_iterations"):
+        options["smooth"] = True  # as the CLI: --smooth-iterations implies --smooth
 
     def report(result: FrameResult) -> None:
         if result.status == "failed":
