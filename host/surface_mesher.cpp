@@ -19,7 +19,7 @@
 #include <tbb/parallel_pipeline.h>
 #include <tbb/task_arena.h>
 
-#include "cell_index.hpp"
+#include "core/cell_index.hpp"
 #include "crack_collapse.hpp"
 #include "crack_stitch.hpp"
 #include "marching_cubes.hpp"

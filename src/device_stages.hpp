@@ -10,8 +10,8 @@
 
 #include <glm/glm.hpp>
 
-#include "coarse_cells.hpp"
-#include "fine_point_map.hpp"
+#include "core/coarse_cells.hpp"
+#include "core/fine_point_map.hpp"
 #include "kernel_contract.hpp"
 #include "opencl_runtime.hpp"
 

@@ -12,7 +12,7 @@
 #include <catch2/catch.hpp>
 #include <glm/glm.hpp>
 
-#include "lattice.hpp"
+#include "core/lattice.hpp"
 #include "reference/reference_stages.hpp"
 #include "stage_constants.hpp"
 #include "test_support.hpp"

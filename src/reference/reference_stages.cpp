@@ -10,7 +10,7 @@
 
 #include <tbb/parallel_for.h>
 
-#include "lattice.hpp"
+#include "core/lattice.hpp"
 #include "stage_constants.hpp"
 
 namespace trilevel::reference {

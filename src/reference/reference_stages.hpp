@@ -15,7 +15,7 @@
 
 #include <glm/glm.hpp>
 
-#include "coarse_cells.hpp"
+#include "core/coarse_cells.hpp"
 
 namespace trilevel::reference {
 
