@@ -18,7 +18,7 @@ namespace trilevel {
 ///
 /// Beyond the paper (§3.3.1 interpolates every level-3 point on such faces and edges, docs/design.md §7):
 /// crossed edges keep the field's midpoint value, so their vertex lands where the uniform cell-r
-/// mesh puts it, as host/edge_refinement.hpp does for the other level-2 edges, and the centres of
+/// mesh puts it, as tests/reference/edge_refinement.hpp does for the other level-2 edges, and the centres of
 /// level-2 squares (two odd coordinates) keep theirs too; the crack stitcher closes the faces for
 /// any values there. Measured on the dam break x8 resampling at the default threshold: p99
 /// deviation from the uniform r mesh 0.411 -> 0.361 r, the same triangle count (docs/design.md).

@@ -107,14 +107,6 @@ inline long hash_insert_counted(volatile __global ulong* keys, ulong capacity, u
     return count_insert(s, created, stats);
 }
 
-// Test and maintenance kernel: inserts `n` keys, recording each key's slot.
-__kernel void hash_insert_keys(__global const ulong* in, uint n, volatile __global ulong* keys, ulong capacity,
-                               __global long* slot_of, volatile __global int* stats) {
-    uint i = get_global_id(0);
-    if (i >= n) return;
-    slot_of[i] = hash_insert_counted(keys, capacity, in[i], stats);
-}
-
 // The fine-point table stores lattice point p as fine_key(p): its coordinates packed with the
 // frame's shifts (y from bit shift.x, z from bit shift.y) into FINE_KEY_BITS bits, 32 when the
 // lattice fits (src/core/lattice.hpp, KeyLayout), else 64. Its home slot is always that of pack_key(p),

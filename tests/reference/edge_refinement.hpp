@@ -7,7 +7,7 @@
 // cell-r mesh puts it, while the level-2 triangle count stays the same. Costs one scalar-field
 // evaluation per level-2 vertex. The pipeline finds, inserts and evaluates these midpoints on the
 // device in one pass (refine_edges, src/device_stages.hpp); this file is its
-// definition in plain C++, for the tests.
+// definition in plain C++, for the tests (built into their library only).
 #pragma once
 
 #include <cstdint>
