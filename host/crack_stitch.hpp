@@ -6,8 +6,8 @@
 
 #include <glm/glm.hpp>
 
-#include "coarse_cells.hpp"
-#include "fine_point_map.hpp"
+#include "core/coarse_cells.hpp"
+#include "core/fine_point_map.hpp"
 
 namespace trilevel {
 

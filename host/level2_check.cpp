@@ -8,7 +8,7 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
-#include "cell_index.hpp"
+#include "core/cell_index.hpp"
 #include "trilevel/trilevel.hpp"
 
 namespace trilevel {

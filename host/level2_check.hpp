@@ -12,8 +12,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "coarse_cells.hpp"
-#include "fine_point_map.hpp"
+#include "core/coarse_cells.hpp"
+#include "core/fine_point_map.hpp"
 
 namespace trilevel {
 

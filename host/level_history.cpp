@@ -1,7 +1,7 @@
 // Level history between the frames of a sequence (level_history.hpp).
 #include "level_history.hpp"
 
-#include "lattice.hpp"
+#include "core/lattice.hpp"
 
 namespace trilevel {
 

@@ -14,8 +14,8 @@
 #include <utility>
 #include <vector>
 
-#include "cell_index.hpp"
-#include "coarse_cells.hpp"
+#include "core/cell_index.hpp"
+#include "core/coarse_cells.hpp"
 
 namespace trilevel {
 

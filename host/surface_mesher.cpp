@@ -19,7 +19,7 @@
 #include <tbb/parallel_pipeline.h>
 #include <tbb/task_arena.h>
 
-#include "cell_index.hpp"
+#include "core/cell_index.hpp"
 #include "crack_collapse.hpp"
 #include "crack_stitch.hpp"
 #include "marching_cubes.hpp"
@@ -114,7 +114,7 @@ bool CellMesher::gather(const CoarseCell& cell, int n, Scratch& s) const {
     return true;
 }
 
-// Midpoint values of the crossed level-2 edges of a cell by the level-2 midpoint rule (host/edge_refinement.hpp)
+// Midpoint values of the crossed level-2 edges of a cell by the level-2 midpoint rule (tests/reference/edge_refinement.hpp)
 // (stored value when present, else the linear mean), looked up in one prefetched batch.
 void CellMesher::level2_midpoints(const CoarseCell& cell, int n, Scratch& s) const {
     const int np = n + 1, axis_step[3] = {1, np, np * np};
@@ -158,7 +158,7 @@ void CellMesher::mesh(const CoarseCell& cell, Scratch& s, ChunkOut& out) const {
     // Vertex of cube edge e of the cube at local (x, y, z), created on first use. A level-2 edge
     // holds at most one crossing, so its slot is the edge's; the vertex lies on the unit sub-edge
     // whose end signs differ, the midpoint valued by the level-2 midpoint rule (docs/design.md §7,
-    // host/edge_refinement.hpp): the same key and position from every cell sharing the edge.
+    // tests/reference/edge_refinement.hpp): the same key and position from every cell sharing the edge.
     auto vertex = [&](int e, glm::ivec3 cube, int id0) -> std::uint32_t {
         const mc::CubeEdge& ce = edges[e];
         const int lp = id0 + corner_off[ce.corner0];

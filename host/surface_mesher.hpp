@@ -3,8 +3,8 @@
 
 #include <vector>
 
-#include "coarse_cells.hpp"
-#include "fine_point_map.hpp"
+#include "core/coarse_cells.hpp"
+#include "core/fine_point_map.hpp"
 #include "trilevel/trilevel.hpp"
 
 namespace trilevel {

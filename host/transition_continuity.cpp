@@ -13,7 +13,7 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
-#include "cell_index.hpp"
+#include "core/cell_index.hpp"
 #include "marching_cubes.hpp"
 #include "trilevel/trilevel.hpp"
 

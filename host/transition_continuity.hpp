@@ -3,8 +3,8 @@
 
 #include <vector>
 
-#include "coarse_cells.hpp"
-#include "fine_point_map.hpp"
+#include "core/coarse_cells.hpp"
+#include "core/fine_point_map.hpp"
 
 namespace trilevel {
 
@@ -18,7 +18,7 @@ namespace trilevel {
 ///
 /// Beyond the paper (§3.3.1 interpolates every level-3 point on such faces and edges, docs/design.md §7):
 /// crossed edges keep the field's midpoint value, so their vertex lands where the uniform cell-r
-/// mesh puts it, as host/edge_refinement.hpp does for the other level-2 edges, and the centres of
+/// mesh puts it, as tests/reference/edge_refinement.hpp does for the other level-2 edges, and the centres of
 /// level-2 squares (two odd coordinates) keep theirs too; the crack stitcher closes the faces for
 /// any values there: closer to the uniform r mesh at the same triangle count (docs/design.md §7).
 /// Only level-2 cells with a level-3 face or edge neighbour do work (paper §3.3.1). Reads only

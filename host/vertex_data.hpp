@@ -9,7 +9,7 @@
 #include <cstddef>
 #include <vector>
 
-#include "reference/reference_stages.hpp"
+#include "reference/particle_grid.hpp"
 #include "trilevel/trilevel.hpp"
 
 namespace trilevel {

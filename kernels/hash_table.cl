@@ -1,7 +1,7 @@
 // Lock-free open-addressing hash of 64-bit keys (docs/design.md §5): any capacity that is a multiple of
 // 8 (so a table need not round up to a power of two: the fine-point table is most of the peak
 // memory), linear probing, insert-only, empty slot = all ones. Keys are lattice points or cells packed 20 bits
-// per axis (host/lattice.hpp). A probe longer than the capacity reports overflow (-1); the host
+// per axis (src/core/lattice.hpp). A probe longer than the capacity reports overflow (-1); the host
 // then grows the table and reruns the stage, so nothing is silently dropped. No work-item ever
 // waits for another (PoCL runs a work-group as a loop).
 #pragma OPENCL EXTENSION cl_khr_int64_base_atomics : enable
@@ -107,17 +107,9 @@ inline long hash_insert_counted(volatile __global ulong* keys, ulong capacity, u
     return count_insert(s, created, stats);
 }
 
-// Test and maintenance kernel: inserts `n` keys, recording each key's slot.
-__kernel void hash_insert_keys(__global const ulong* in, uint n, volatile __global ulong* keys, ulong capacity,
-                               __global long* slot_of, volatile __global int* stats) {
-    uint i = get_global_id(0);
-    if (i >= n) return;
-    slot_of[i] = hash_insert_counted(keys, capacity, in[i], stats);
-}
-
 // The fine-point table stores lattice point p as fine_key(p): its coordinates packed with the
 // frame's shifts (y from bit shift.x, z from bit shift.y) into FINE_KEY_BITS bits, 32 when the
-// lattice fits (host/lattice.hpp, KeyLayout), else 64. Its home slot is always that of pack_key(p),
+// lattice fits (src/core/lattice.hpp, KeyLayout), else 64. Its home slot is always that of pack_key(p),
 // so the table's layout does not depend on the storage.
 #if FINE_KEY_BITS == 32
 typedef uint fine_key_t;

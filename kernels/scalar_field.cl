@@ -12,7 +12,7 @@
 // polynomial l^3 - t l^2 + m l - d (t: trace, m: sum of principal 2x2 minors, d: determinant),
 // solved in closed form: three real roots by the trigonometric method, else one real root and a
 // complex pair whose real part is -t1/2 in the depressed variable. Tested against QR iterations
-// in src/reference (through the field in tests/test_device_stages.cpp; the host copy in
+// in tests/reference (through the field in tests/test_device_stages.cpp; the host copy in
 // tests/test_vertex_data.cpp).
 inline float largest_real_eigenvalue(float3 a, float3 b, float3 c) {
     float t = a.x + b.y + c.z;
@@ -167,7 +167,7 @@ inline uint near_candidates(float8 X, float8 Y, float8 Z, __local const float4* 
 
 // Which pending points of its cell a work-group claims: CLAIM_* in contract.h.
 
-// Edge refinement (host/edge_refinement.hpp) for one level-2 cell: the midpoints of its level-2 edges
+// Edge refinement (tests/reference/edge_refinement.hpp) for one level-2 cell: the midpoints of its level-2 edges
 // whose ends the surface separates (phi < 0 at one end only), inserted; the slots of those this
 // work-group created go into claimed[0 .. *claimed_count), in no particular order (a point's
 // value does not depend on its lane or partners). `corner` holds the (cs/2 + 1)^3 level-2 values

@@ -1,7 +1,7 @@
 // The OpenCL stages of the pipeline (docs/design.md §2: stages 1-6 and 8b), each a function from buffers to
 // buffers. Particle positions are relative to the lattice origin. Buffers come from the runtime's
 // pool (buffer_pool.hpp) and go back to it when these structs are destroyed. The tests compare each stage
-// with its plain C++ reference in src/reference/.
+// with its plain C++ reference in tests/reference/.
 #pragma once
 
 #include <cstdint>
@@ -10,8 +10,8 @@
 
 #include <glm/glm.hpp>
 
-#include "coarse_cells.hpp"
-#include "fine_point_map.hpp"
+#include "core/coarse_cells.hpp"
+#include "core/fine_point_map.hpp"
 #include "kernel_contract.hpp"
 #include "mapped_buffer.hpp"
 #include "opencl_runtime.hpp"
@@ -31,7 +31,9 @@ struct BinnedParticles {
     std::size_t count = 0;
     float cell = 0.0f;      ///< bin edge (the kernel radius R)
     DeviceBuffer sorted;      ///< positions in bin order, packed xyz (3 floats a particle)
-    DeviceBuffer order;       ///< uint: sorted index -> input index (the pipeline drops it after binning)
+    DeviceBuffer order;       ///< uint: sorted index -> input index; the binning's own intermediate (the
+                              ///< gather reads it), kept for the tests to map results back to input
+                              ///< order (the pipeline drops it after binning)
     DeviceHash bins;        ///< occupied bins
     DeviceBuffer range;       ///< uint2 per bin slot: first sorted index, count
     DeviceBuffer occupied;    ///< uint: the slots of the non-empty bins
@@ -64,7 +66,8 @@ struct SurfaceCells {
 };
 /// `forced_level` 2 or 3 assigns that level to every cell (uniform modes, no curvature pass).
 /// `read_particle_kappa`: also copy the per-particle curvature to the host (tests; the pipeline
-/// needs only the cells). The curvature pass overwrites `classes.gradient` with the outward unit
+/// needs only the cells). The curvature kernel writes it only when asked (its keep_kappa
+/// argument), so this switch stays in the stage rather than in the tests' library. The curvature pass overwrites `classes.gradient` with the outward unit
 /// normals in place (a second array of n normals would be 210 MB at x512); once it has run, the
 /// gradients and flags of `classes` are freed (the counts stay).
 SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& bins, ParticleClasses& classes,
@@ -95,7 +98,7 @@ using contract::ClaimPoints;
 void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& points, const std::vector<CoarseCell>& cells,
                          const LatticeFrame& lattice_frame, const BinnedParticles& bins, float r, float R,
                          const std::vector<std::uint8_t>& cube_centres = {});
-/// Edge refinement (host/edge_refinement.hpp) on the device: inserts and evaluates the midpoints of the
+/// Edge refinement (tests/reference/edge_refinement.hpp) on the device: inserts and evaluates the midpoints of the
 /// level-2 edges of the level-2 cells among `cells` whose ends the surface separates and that the
 /// table does not hold yet, in one pass over those cells (each finds its corners in the table,
 /// inserts its crossed midpoints and evaluates those it created). Every point of those cells'
@@ -114,8 +117,6 @@ struct MappedFinePoints {
     void unmap(OpenCLRuntime& rt);
 };
 MappedFinePoints map_fine_points(OpenCLRuntime& rt, FinePoints& points);
-/// Copies the table to the host.
-FinePointMap read_fine_points(OpenCLRuntime& rt, const FinePoints& points);
 
 /// Reads a whole buffer of `count` elements of T.
 template <class T>

@@ -120,8 +120,6 @@ inline constexpr Kernel<Buf, cl_uint, Buf, Buf, Buf> smooth_cell_curvature{"smoo
 inline constexpr Kernel<Buf, cl_uint, Buf, Buf, float, Buf> cell_levels{"cell_levels"};
 
 // ---- hash_table.cl -----------------------------------------------------------------------------
-//   in n keys capacity slot_of stats (tests: the table under heavy duplication)
-inline constexpr Kernel<Buf, cl_uint, Buf, cl_ulong, Buf, Buf> hash_insert_keys{"hash_insert_keys"};
 //   old_keys old_values old_capacity keys values capacity shift stats
 inline constexpr Kernel<Buf, Buf, cl_ulong, Buf, Buf, cl_ulong, cl_uint2, Buf> fine_rehash{"fine_rehash"};
 

@@ -12,8 +12,8 @@
 
 #include <catch2/catch.hpp>
 
-#include "coarse_cells.hpp"
-#include "fine_point_map.hpp"
+#include "core/coarse_cells.hpp"
+#include "core/fine_point_map.hpp"
 #include "mesh_topology.hpp"
 #include "trilevel/trilevel.hpp"
 

@@ -9,8 +9,8 @@
 #include <tbb/task_arena.h>
 
 #include "crack_stitch.hpp"
-#include "edge_refinement.hpp"
 #include "mesh_test_support.hpp"
+#include "reference/edge_refinement.hpp"
 #include "surface_mesher.hpp"
 #include "test_support.hpp"
 #include "transition_continuity.hpp"

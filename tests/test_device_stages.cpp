@@ -7,10 +7,12 @@
 #include <set>
 
 #include "device_stages.hpp"
-#include "edge_refinement.hpp"
 #include "kernel_launch.hpp"
+#include "reference/edge_refinement.hpp"
 #include "reference/reference_stages.hpp"
 #include "stage_constants.hpp"
+#include "support/device_readback.hpp"
+#include "support/test_kernels.hpp"
 #include "test_support.hpp"
 
 using namespace trilevel;
@@ -104,8 +106,7 @@ Inserted insert_keys(const std::vector<cl_ulong>& in, std::size_t count, std::si
     cl::Buffer stats(rt.context(), CL_MEM_READ_WRITE, 2 * sizeof(cl_int));
     rt.queue().enqueueFillBuffer(keys, ~cl_ulong{0}, 0, capacity * sizeof(cl_ulong));
     rt.queue().enqueueFillBuffer(stats, cl_int{0}, 0, 2 * sizeof(cl_int));
-    kernels::hash_insert_keys(rt, kernels::Items{count}, keys_in, cl_uint(count), keys, cl_ulong(capacity), slots, stats);
-    rt.finish();
+    test::hash_insert_keys(rt, keys_in, count, keys, capacity, slots, stats);
     return {read_buffer<cl_ulong>(rt, keys, capacity), read_buffer<cl_int>(rt, stats, 2),
             read_buffer<cl_long>(rt, slots, count)};
 }
@@ -271,7 +272,7 @@ TEST_CASE("scalar field on fine points matches the C++ reference, each point eva
     const std::size_t first = points.inserted;
     refine_and_evaluate(rt, points, sc.cells, frame, b, r, R);
     CHECK(points.inserted > first);
-    FinePointMap map = read_fine_points(rt, points);
+    FinePointMap map = test::read_fine_points(rt, points);
 
     std::set<std::uint64_t> expected;
     for (const auto& cell : sc.cells)
@@ -331,7 +332,7 @@ TEST_CASE("a fine point gets the same bits whichever of its cells evaluates it",
     FinePoints forward_points, reversed_points;
     refine_and_evaluate(rt, forward_points, sc.cells, frame, b, r, R);
     refine_and_evaluate(rt, reversed_points, reversed, frame, b, r, R);
-    const FinePointMap forward = read_fine_points(rt, forward_points), backward = read_fine_points(rt, reversed_points);
+    const FinePointMap forward = test::read_fine_points(rt, forward_points), backward = test::read_fine_points(rt, reversed_points);
     std::size_t points = 0;
     for (std::size_t s = 0; s < forward.capacity(); ++s) {
         const std::uint64_t key = forward.key_at(s);
@@ -376,7 +377,7 @@ TEST_CASE("refinement falls back to separate insert and evaluate passes when the
     refine_and_evaluate(rt, points, cells, frame, b, r, R);
     CHECK(points.inserted == 40 * 27);
     CHECK(double(points.inserted) <= FinePoints::kMaxLoad * double(points.hash.capacity));
-    FinePointMap map = read_fine_points(rt, points);
+    FinePointMap map = test::read_fine_points(rt, points);
     std::vector<glm::vec3> pts;
     std::vector<float> dev;
     for (const auto& cell : cells)
@@ -433,7 +434,7 @@ TEST_CASE("flagged level-2 cells get their cube centres in the same pass, others
     CHECK(points.inserted == before + 40 * 27 + 20 * 8 + 125);
     CHECK_THROWS_WITH(refine_and_evaluate(rt, points, cells, frame, b, r, R, std::vector<std::uint8_t>(3, 1)),
                       Catch::Matchers::Contains("one cube-centre flag per refined cell"));
-    const FinePointMap map = read_fine_points(rt, points);
+    const FinePointMap map = test::read_fine_points(rt, points);
     std::vector<glm::vec3> pts;
     std::vector<float> dev;
     for (std::size_t i = 0; i + 1 < cells.size(); ++i)
@@ -473,13 +474,13 @@ TEST_CASE("edge refinement on the device evaluates exactly the host reference's 
         if (reversed) std::reverse(cells.begin(), cells.end());
         FinePoints points;
         refine_and_evaluate(rt, points, cells, frame, b, r, R);
-        const FinePointMap before = read_fine_points(rt, points);
+        const FinePointMap before = test::read_fine_points(rt, points);
         const std::size_t inserted = points.inserted;
         expected = edge_refinement_points(cells, frame, before);
         REQUIRE(expected.size() > 20);
         refine_edges(rt, points, cells, frame, b, r, R);
         CHECK(points.inserted == inserted + expected.size());
-        after.push_back(read_fine_points(rt, points));
+        after.push_back(test::read_fine_points(rt, points));
         for (std::size_t s = 0; s < before.capacity(); ++s)  // the points there before keep their bits
             if (before.key_at(s) != lattice::kEmptyKey) {
                 const float* v = after.back().find(before.key_at(s));
@@ -527,13 +528,13 @@ TEST_CASE("edge refinement on the device grows the table when the midpoints over
                     }
         table.unmap(rt);
     }
-    const FinePointMap host = read_fine_points(rt, points);
+    const FinePointMap host = test::read_fine_points(rt, points);
     const std::vector<std::uint64_t> expected = edge_refinement_points(cells, frame, host);
     REQUIRE(expected.size() == 40 * 54);  // 54 edges a cell, none shared
     refine_edges(rt, points, cells, frame, b, r, R);
     CHECK(points.hash.capacity > capacity);  // 2160 midpoints where the pass reserved 80
     CHECK(points.inserted == before + expected.size());
-    const FinePointMap map = read_fine_points(rt, points);
+    const FinePointMap map = test::read_fine_points(rt, points);
     std::vector<glm::vec3> pts;
     std::vector<float> dev;
     for (std::uint64_t key : expected) {
@@ -573,7 +574,7 @@ TEST_CASE("32-bit and 64-bit fine-point keys hold the same points with the same 
         for (auto& cell : rest) cell.level = 2;
         refine_and_evaluate(rt, points, first, frame, b, r, R);
         refine_and_evaluate(rt, points, rest, frame, b, r, R, std::vector<std::uint8_t>(rest.size(), 1));
-        maps.push_back(read_fine_points(rt, points));
+        maps.push_back(test::read_fine_points(rt, points));
         inserted.push_back(points.inserted);
     }
     REQUIRE(inserted[0] == inserted[1]);

@@ -9,9 +9,9 @@
 #include <tbb/global_control.h>
 #include <tbb/task_arena.h>
 
-#include "edge_refinement.hpp"
 #include "marching_cubes.hpp"
 #include "mesh_test_support.hpp"
+#include "reference/edge_refinement.hpp"
 #include "surface_mesher.hpp"
 #include "test_support.hpp"
 

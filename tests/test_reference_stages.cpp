@@ -1,4 +1,4 @@
-// Tests of the C++ reference stages (src/reference), which the OpenCL kernels are compared against
+// Tests of the C++ reference stages (tests/reference), which the OpenCL kernels are compared against
 // (docs/design.md §8). Also the calibration of kSurfaceGradient (docs/design.md §3.1) and the curvature scale
 // (docs/design.md §3.2): run `trilevel_tests "[calibration]"` to print the measured distributions.
 #include <algorithm>
@@ -12,7 +12,7 @@
 #include <catch2/catch.hpp>
 #include <glm/glm.hpp>
 
-#include "lattice.hpp"
+#include "core/lattice.hpp"
 #include "reference/reference_stages.hpp"
 #include "stage_constants.hpp"
 #include "test_support.hpp"

@@ -6,7 +6,7 @@
 
 #include <glm/glm.hpp>
 
-#include "lattice.hpp"
+#include "core/lattice.hpp"
 
 namespace trilevel {
 

@@ -9,7 +9,7 @@
 #include <utility>
 #include <vector>
 
-#include "lattice.hpp"
+#include "core/lattice.hpp"
 
 namespace trilevel {
 

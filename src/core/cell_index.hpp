@@ -5,8 +5,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "coarse_cells.hpp"
-#include "fine_point_map.hpp"
+#include "core/coarse_cells.hpp"
+#include "core/fine_point_map.hpp"
 
 namespace trilevel {
 

@@ -1,5 +1,5 @@
 // The level-2 edge refinement's definition; see edge_refinement.hpp.
-#include "edge_refinement.hpp"
+#include "reference/edge_refinement.hpp"
 
 #include <algorithm>
 

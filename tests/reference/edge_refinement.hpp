@@ -7,14 +7,14 @@
 // cell-r mesh puts it, while the level-2 triangle count stays the same. Costs one scalar-field
 // evaluation per level-2 vertex. The pipeline finds, inserts and evaluates these midpoints on the
 // device in one pass (refine_edges, src/device_stages.hpp); this file is its
-// definition in plain C++, for the tests.
+// definition in plain C++, for the tests (built into their library only).
 #pragma once
 
 #include <cstdint>
 #include <vector>
 
-#include "coarse_cells.hpp"
-#include "fine_point_map.hpp"
+#include "core/coarse_cells.hpp"
+#include "core/fine_point_map.hpp"
 
 namespace trilevel {
 

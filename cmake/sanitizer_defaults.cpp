@@ -1,5 +1,6 @@
-// Sanitizer settings of the TRILEVEL_SANITIZE build, compiled into the test executable and into the
-// CLI (which the tests run), so that ctest and a hand run behave alike with no environment set.
+// Sanitizer settings of the TRILEVEL_SANITIZE build (the object library trilevel_sanitizer_defaults),
+// linked into the tests, the fuzz replay and the CLI (which the tests run), so that ctest and a hand
+// run behave alike with no environment set.
 // ASAN_OPTIONS / LSAN_OPTIONS / UBSAN_OPTIONS given at run time still add to or override these.
 
 extern "C" {
