@@ -105,7 +105,7 @@ TEST_CASE("sliver cleanup and smoothing keep random meshes closed, their compone
         SmoothingSettings settings;
         settings.iterations = kDefaultSmoothIterations;
         settings.min_volume = smooth_min_volume(r);
-        smooth_mesh(m, smoothing_weights(m, xyz.data(), xyz.size() / 3, r, 4 * r), settings);
+        smooth_mesh(m, smoothing_weights(m, vertex_particle_grid(xyz.data(), xyz.size() / 3, r, 4 * r), r, 4 * r), settings);
         REQUIRE(m.triangles == before.triangles);  // positions only
         REQUIRE(is_closed_and_oriented(m));
         CHECK(sorted_euler(m) == chi0);

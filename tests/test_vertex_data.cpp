@@ -10,6 +10,7 @@
 #include <glm/glm.hpp>
 #include <tbb/global_control.h>
 
+#include "reference/reference_stages.hpp"
 #include "test_support.hpp"
 #include "trilevel/io.hpp"
 #include "trilevel/trilevel.hpp"
