@@ -142,6 +142,9 @@ std::vector<float> smoothing_weights(const Mesh& mesh, const ParticleGrid& grid,
     // interior's, rho * 4 pi R^3 * 16/315 (the integral of (1 - d^2/R^2)^3 over the ball), less
     // the layer of about r between the surface and the outer particles (a factor of about 0.7).
     const double flat = 0.5 * 0.7 * (4.0 * kPi * 16.0 / 315.0) * std::pow(double(R) / (2.0 * r), 3.0);
+    // Share of the way from kWeightLow to kWeightHigh; every step rounds monotonically, so it never
+    // decreases as the sum grows.
+    const auto ramp = [&](double sum) { return std::clamp((sum / flat - kWeightLow) / (kWeightHigh - kWeightLow), 0.0, 1.0); };
     struct Term {
         std::uint64_t key;
         std::uint32_t j;
@@ -153,20 +156,39 @@ std::vector<float> smoothing_weights(const Mesh& mesh, const ParticleGrid& grid,
         const glm::vec3 pf(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]);
         const glm::dvec3 p(pf);
         const glm::ivec3 c = order.of_vertex(p);
-        std::vector<Term>& terms = scratch.local();
-        terms.clear();
-        grid.for_each_candidate(pf, R, [&](std::uint32_t j, glm::vec3 xj) {
+        // The terms (1 - d^2/R^2)^3 >= 0 summed in the grid's order. Any order's rounded sum lies
+        // within (n - 1) 2^-53 (1 + small) of the exact sum, so SumOrder's sum lies within
+        // n 2^-50 sum of this one. Where the ramp is the same at both ends of that interval (the
+        // bulk's surface at 1 and splashes at 0: all but a few vertices of a large frame), it is
+        // the same at SumOrder's sum too, and the terms need no sorting.
+        double sum = 0.0;
+        std::size_t n = 0;
+        std::uint64_t key;
+        grid.for_each_candidate(pf, R, [&](std::uint32_t, glm::vec3 xj) {
             const glm::dvec3 d = p - glm::dvec3(xj);
             const double d2 = glm::dot(d, d);
-            std::uint64_t key;
             if (!(d2 < R2) || !order.key(c, glm::dvec3(xj), key)) return;
             const double x = 1.0 - d2 / R2;
-            terms.push_back({key, j, x * x * x});
+            sum += x * x * x;
+            ++n;
         });
-        std::sort(terms.begin(), terms.end());
-        double sum = 0;
-        for (const Term& t : terms) sum += t.k;
-        const double x = std::clamp((sum / flat - kWeightLow) / (kWeightHigh - kWeightLow), 0.0, 1.0);
+        const double slack = 2.0 * double(n + 1) * 0x1p-50 * sum;
+        double x = ramp(sum);
+        if (ramp(sum - slack) != ramp(sum + slack)) {
+            std::vector<Term>& terms = scratch.local();
+            terms.clear();
+            grid.for_each_candidate(pf, R, [&](std::uint32_t j, glm::vec3 xj) {
+                const glm::dvec3 d = p - glm::dvec3(xj);
+                const double d2 = glm::dot(d, d);
+                if (!(d2 < R2) || !order.key(c, glm::dvec3(xj), key)) return;
+                const double y = 1.0 - d2 / R2;
+                terms.push_back({key, j, y * y * y});
+            });
+            std::sort(terms.begin(), terms.end());
+            sum = 0.0;
+            for (const Term& t : terms) sum += t.k;
+            x = ramp(sum);
+        }
         w[v] = float(x * x * (3.0 - 2.0 * x));
     });
     return w;

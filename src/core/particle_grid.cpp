@@ -19,15 +19,17 @@ ParticleGrid::ParticleGrid(const float* xyz, std::size_t count, float cell, std:
     if (count > std::size_t(UINT32_MAX) - 1) throw Error("particle grid: too many particles");
     const auto at = [&](std::size_t j) { return glm::vec3(xyz[3 * j], xyz[3 * j + 1], xyz[3 * j + 2]); };
     lo_ = at(0);
-    for (std::size_t j = 1; j < count; ++j) lo_ = glm::min(lo_, at(j));
+    glm::vec3 hi = lo_;
+    for (std::size_t j = 1; j < count; ++j) {
+        lo_ = glm::min(lo_, at(j));
+        hi = glm::max(hi, at(j));
+    }
     // The cell of each particle, written as the reference grid writes it (float), clamped per axis.
     const auto cell_of = [&](glm::vec3 x) {
         const glm::vec3 c = glm::floor((x - lo_) / cell_);
         return glm::ivec3(glm::clamp(c, glm::vec3(0.0f), glm::vec3(float(kMaxAxisCell))));
     };
-    glm::ivec3 top(0);
-    for (std::size_t j = 0; j < count; ++j) top = glm::max(top, cell_of(at(j)));
-    dims_ = top + 1;
+    dims_ = cell_of(hi) + 1;  // every rounding step is monotone: the largest coordinate has the last cell
     const double cells = double(dims_.x) * dims_.y * dims_.z;
     const double limit = std::min(dense_limit > 0 ? double(dense_limit) : std::max(4.0 * double(count), double(1 << 20)),
                                   double(UINT32_MAX - 1));  // dense cell indices are 32-bit
