@@ -50,7 +50,14 @@ public:
             cell_ *= 1.5;
         dims_ = glm::ivec3(glm::floor(extent / cell_)) + 1;
         reach_ = int(std::ceil(R / cell_));
+        // Every particle within R of a vertex lies in the box (margin R) and, where R / cell falls
+        // short of the reach by more than the rounding of the cell coordinates (under 2^-17 cells
+        // for any box of at most 2^34 cells), in the cells scanned around the vertex's cell.
+        scans_all_ = double(reach_) - R / cell_ > 0x1p-10;
     }
+
+    /// Whether key() is true for every particle within R (d^2 < R^2) of a vertex.
+    bool scans_all() const { return scans_all_; }
 
     /// The cell of a vertex at p.
     glm::ivec3 of_vertex(glm::dvec3 p) const { return glm::ivec3(glm::floor((p - lo_) / cell_)); }
@@ -72,6 +79,7 @@ private:
     glm::dvec3 lo_;
     glm::ivec3 dims_{0};
     int reach_ = 1;
+    bool scans_all_ = false;
 };
 
 /// Compressed rows: the items of row v are item[offset[v] .. offset[v + 1]).
@@ -164,10 +172,11 @@ std::vector<float> smoothing_weights(const Mesh& mesh, const ParticleGrid& grid,
         double sum = 0.0;
         std::size_t n = 0;
         std::uint64_t key;
+        const bool check = !order.scans_all();
         grid.for_each_candidate(pf, R, [&](std::uint32_t, glm::vec3 xj) {
             const glm::dvec3 d = p - glm::dvec3(xj);
             const double d2 = glm::dot(d, d);
-            if (!(d2 < R2) || !order.key(c, glm::dvec3(xj), key)) return;
+            if (!(d2 < R2) || (check && !order.key(c, glm::dvec3(xj), key))) return;
             const double x = 1.0 - d2 / R2;
             sum += x * x * x;
             ++n;

@@ -30,26 +30,34 @@ public:
 
     /// Calls f(j, x_j) for every particle j in the cells that can hold a particle within `radius`
     /// (world units, >= 0) of p: all of those, and others (callers filter by their own distance
-    /// test). The window is widened by the float rounding of the particles' cell coordinates, so no
-    /// particle within `radius` is missed at any distance from the origin. Order: see above.
+    /// test). Each row of cells along x is cut to the ball's extent at its distance from p in y
+    /// and z. Cell bounds are widened by the float rounding of the particles' cell coordinates, so
+    /// no particle within `radius` is missed at any distance from the origin. Order: see above.
     template <class F>
     void for_each_candidate(glm::vec3 p, double radius, F&& f) const {
         if (ids_.empty()) return;
+        // In cell units: t = p's coordinate, span = radius. A particle's computed coordinate is its
+        // exact one times (1 +- 2^-23) (two float roundings); `slack` covers that many times over.
+        double t[3], slack[3];
         int lo[3], hi[3];
+        const double span = radius / double(cell_);
         for (int a = 0; a < 3; ++a) {
-            const double t = (double(p[a]) - double(lo_[a])) / double(cell_), span = radius / double(cell_);
-            // A particle's computed coordinate is its exact one times (1 +- 2^-23) (two float roundings).
-            const double slack = (std::fabs(t) + span + 1.0) * 0x1p-16;
-            const double a0 = std::floor(t - span - slack), a1 = std::floor(t + span + slack);
-            if (!(a1 >= 0.0) || !(a0 <= double(dims_[a] - 1))) return;  // NaN p: nothing
-            lo[a] = int(std::max(a0, 0.0));
-            hi[a] = int(std::min(a1, double(dims_[a] - 1)));
+            t[a] = (double(p[a]) - double(lo_[a])) / double(cell_);
+            slack[a] = (std::fabs(t[a]) + span + 1.0) * 0x1p-16;
+            if (!window(t[a], span, slack[a], dims_[a], lo[a], hi[a])) return;  // also for NaN p
         }
-        for (int z = lo[2]; z <= hi[2]; ++z)
+        const double span2 = span * span * (1.0 + 0x1p-30);  // rounds up: never cuts a particle off
+        for (int z = lo[2]; z <= hi[2]; ++z) {
+            const double gz = gap(t[2], z, slack[2]), rz2 = span2 - gz * gz;
+            if (rz2 < 0.0) continue;
             for (int y = lo[1]; y <= hi[1]; ++y) {
-                const auto [b, e] = row(z, y, lo[0], hi[0]);
+                const double gy = gap(t[1], y, slack[1]), ry2 = rz2 - gy * gy;
+                int x0, x1;
+                if (ry2 < 0.0 || !window(t[0], std::sqrt(ry2) * (1.0 + 0x1p-30), slack[0], dims_[0], x0, x1)) continue;
+                const auto [b, e] = row(z, y, x0, x1);
                 for (std::uint32_t s = b; s < e; ++s) f(ids_[s], pos_[s]);
             }
+        }
     }
 
     float cell() const { return cell_; }
@@ -57,6 +65,21 @@ public:
     bool dense() const { return !start_.empty(); }
 
 private:
+    /// Cells c0..c1 (clamped to 0..dims - 1) that can hold coordinates in t +- (half + slack);
+    /// false where none can.
+    static bool window(double t, double half, double slack, int dims, int& c0, int& c1) {
+        const double a0 = std::floor(t - half - slack), a1 = std::floor(t + half + slack);
+        if (!(a1 >= 0.0) || !(a0 <= double(dims - 1))) return false;
+        c0 = int(std::max(a0, 0.0));
+        c1 = int(std::min(a1, double(dims - 1)));
+        return true;
+    }
+    /// Distance in cell units from t to the widened cell [c - slack, c + 1 + slack]; rounds down.
+    static double gap(double t, int c, double slack) {
+        const double below = double(c) - slack - t, above = t - (double(c) + 1.0 + slack);
+        return std::max(std::max(below, above), 0.0) * (1.0 - 0x1p-30);
+    }
+
     /// Particle slots [b, e) of the cells (x0..x1, y, z): one contiguous range, in (x, index) order.
     std::pair<std::uint32_t, std::uint32_t> row(int z, int y, int x0, int x1) const {
         if (dense()) {
