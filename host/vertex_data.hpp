@@ -1,7 +1,8 @@
 // Per-vertex data of the output mesh, computed after triangulation (docs/design.md §2 stage 11): normals
 // (Params::normals) and particle attributes interpolated at the vertices. Both run on the host
-// over the finished mesh with the frame's one particle grid (core/particle_grid.hpp): the mesh is on the host already, and the cost is
-// a few neighbour sums per vertex, small beside the pipeline (docs/operations.md, "Normals and attributes").
+// over the finished mesh with the frame's one particle grid (core/particle_grid.hpp): the mesh is
+// on the host already, and the cost is a few neighbour sums per vertex, small beside the pipeline
+// (docs/operations.md, "Normals and attributes").
 // Every vertex is computed on its own with sums in a fixed order, so the output is bit-identical
 // for any thread count.
 #pragma once
