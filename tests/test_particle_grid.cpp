@@ -79,6 +79,16 @@ TEST_CASE("the particle grid finds exactly the particles within any radius, in (
             std::sort(got.begin(), got.end());
             REQUIRE(got == brute_force(xyz, p, radius));
             found += got.size();
+            // A callback returning true stops the search: the visits before it are the full search's.
+            std::vector<std::uint32_t> all, prefix;
+            dense.for_each_candidate(p, radius, [&](std::uint32_t j, glm::vec3) { all.push_back(j); });
+            const std::size_t stop = all.size() / 2;
+            dense.for_each_candidate(p, radius, [&](std::uint32_t j, glm::vec3) {
+                prefix.push_back(j);
+                return prefix.size() > stop;
+            });
+            REQUIRE(prefix.size() == std::min(stop + 1, all.size()));
+            REQUIRE(std::equal(prefix.begin(), prefix.end(), all.begin()));
         }
     }
     CHECK(found > 10000);  // the queries do reach particles

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <type_traits>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -33,6 +34,7 @@ public:
     /// test). Each row of cells along x is cut to the ball's extent at its distance from p in y
     /// and z. Cell bounds are widened by the float rounding of the particles' cell coordinates, so
     /// no particle within `radius` is missed at any distance from the origin. Order: see above.
+    /// A callback that returns bool stops the search by returning true.
     template <class F>
     void for_each_candidate(glm::vec3 p, double radius, F&& f) const {
         if (ids_.empty()) return;
@@ -55,7 +57,13 @@ public:
                 int x0, x1;
                 if (ry2 < 0.0 || !window(t[0], std::sqrt(ry2) * (1.0 + 0x1p-30), slack[0], dims_[0], x0, x1)) continue;
                 const auto [b, e] = row(z, y, x0, x1);
-                for (std::uint32_t s = b; s < e; ++s) f(ids_[s], pos_[s]);
+                for (std::uint32_t s = b; s < e; ++s) {
+                    if constexpr (std::is_same_v<std::invoke_result_t<F&, std::uint32_t, glm::vec3>, bool>) {
+                        if (f(ids_[s], pos_[s])) return;
+                    } else {
+                        f(ids_[s], pos_[s]);
+                    }
+                }
             }
         }
     }
