@@ -7,6 +7,7 @@
 
 #include <glm/glm.hpp>
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include "mesh_topology.hpp"
@@ -26,13 +27,15 @@ void for_vertices(std::size_t n, F&& f) {
     });
 }
 
-/// Particles binned on a dense grid over the mesh's bounding box grown by 2R (a particle further
-/// away is no neighbour of a particle within R of a vertex), cells of R/2 (a query scans 5^3 cells,
-/// 15.6 R^3, against 27 R^3 with cells of R), grown where the box would need more than a few cells
-/// per particle. Counting sort: cell order, then input order.
-class DenseGrid {
+/// The order in which smoothing_weights sums a vertex's kernel terms: ascending (cell, particle
+/// index) over the cells of a dense grid over the mesh's bounding box grown by 2R, with cells of
+/// R/2 grown by factors of 1.5 while the box would need more than max(4 count, 2^20) cells, and
+/// of the particles in the cells scanned around the vertex's cell (reach ceil(R / cell)). That is
+/// the order of the grid the weights had before the frame's particle grid (core/particle_grid.hpp)
+/// was shared with the vertex stages: it keeps their bits.
+class SumOrder {
 public:
-    DenseGrid(const Mesh& mesh, const float* xyz, std::size_t n, double R) : R2_(R * R) {
+    SumOrder(const Mesh& mesh, std::size_t count, double R) {
         glm::dvec3 lo(INFINITY), hi(-INFINITY);
         for (std::size_t i = 0; i < mesh.positions.size(); i += 3) {
             const glm::dvec3 p(mesh.positions[i], mesh.positions[i + 1], mesh.positions[i + 2]);
@@ -42,61 +45,41 @@ public:
         lo_ = lo - 2.0 * R;
         const glm::dvec3 extent = hi + 2.0 * R - lo_;
         cell_ = 0.5 * R;
-        const double limit = std::max(4.0 * double(n), double(1 << 20));
+        const double limit = std::max(4.0 * double(count), double(1 << 20));
         while ((std::floor(extent.x / cell_) + 1) * (std::floor(extent.y / cell_) + 1) * (std::floor(extent.z / cell_) + 1) > limit)
             cell_ *= 1.5;
         dims_ = glm::ivec3(glm::floor(extent / cell_)) + 1;
         reach_ = int(std::ceil(R / cell_));
-        std::vector<std::uint32_t> cell_of(n);
-        start_.assign(std::size_t(dims_.x) * dims_.y * dims_.z + 1, 0);
-        for (std::size_t j = 0; j < n; ++j) {
-            const glm::dvec3 p(xyz[3 * j], xyz[3 * j + 1], xyz[3 * j + 2]);
-            const glm::dvec3 f = (p - lo_) / cell_;
-            if (!(f.x >= 0 && f.y >= 0 && f.z >= 0 && f.x < dims_.x && f.y < dims_.y && f.z < dims_.z)) {
-                cell_of[j] = UINT32_MAX;
-                continue;
-            }
-            cell_of[j] = std::uint32_t(index(glm::ivec3(f)));
-            ++start_[cell_of[j] + 1];
-        }
-        for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
-        std::vector<std::uint32_t> fill(start_.begin(), start_.end() - 1);
-        id_.resize(start_.back());
-        pos_.resize(start_.back());
-        for (std::size_t j = 0; j < n; ++j)
-            if (cell_of[j] != UINT32_MAX) {
-                const std::uint32_t s = fill[cell_of[j]]++;
-                id_[s] = std::uint32_t(j);
-                pos_[s] = glm::dvec3(xyz[3 * j], xyz[3 * j + 1], xyz[3 * j + 2]);
-            }
+        // Every particle within R of a vertex lies in the box (margin R) and, where R / cell falls
+        // short of the reach by more than the rounding of the cell coordinates (under 2^-17 cells
+        // for any box of at most 2^34 cells), in the cells scanned around the vertex's cell.
+        scans_all_ = double(reach_) - R / cell_ > 0x1p-10;
     }
 
-    /// f(slot, d2) for every binned particle within R of p, in cell order (a fixed order).
-    template <class F>
-    void for_each_within(glm::dvec3 p, F&& f) const {
-        const glm::ivec3 c(glm::floor((p - lo_) / cell_));
-        for (int z = std::max(c.z - reach_, 0); z <= std::min(c.z + reach_, dims_.z - 1); ++z)
-            for (int y = std::max(c.y - reach_, 0); y <= std::min(c.y + reach_, dims_.y - 1); ++y)
-                for (int x = std::max(c.x - reach_, 0); x <= std::min(c.x + reach_, dims_.x - 1); ++x) {
-                    const std::size_t k = index({x, y, z});
-                    for (std::uint32_t s = start_[k]; s < start_[k + 1]; ++s) {
-                        const glm::dvec3 d = p - pos_[s];
-                        const double d2 = glm::dot(d, d);
-                        if (d2 < R2_) f(s, d2);
-                    }
-                }
+    /// Whether key() is true for every particle within R (d^2 < R^2) of a vertex.
+    bool scans_all() const { return scans_all_; }
+
+    /// The cell of a vertex at p.
+    glm::ivec3 of_vertex(glm::dvec3 p) const { return glm::ivec3(glm::floor((p - lo_) / cell_)); }
+
+    /// The sort key of a particle at x for a vertex in cell c; false where it is not summed
+    /// (outside the box, or outside the cells scanned around c).
+    bool key(glm::ivec3 c, glm::dvec3 x, std::uint64_t& out) const {
+        const glm::dvec3 f = (x - lo_) / cell_;
+        if (!(f.x >= 0 && f.y >= 0 && f.z >= 0 && f.x < dims_.x && f.y < dims_.y && f.z < dims_.z)) return false;
+        const glm::ivec3 k(f);
+        const glm::ivec3 from = glm::max(c - reach_, glm::ivec3(0)), to = glm::min(c + reach_, dims_ - 1);
+        if (glm::any(glm::lessThan(k, from)) || glm::any(glm::greaterThan(k, to))) return false;
+        out = (std::uint64_t(k.z) * std::uint64_t(dims_.y) + std::uint64_t(k.y)) * std::uint64_t(dims_.x) + std::uint64_t(k.x);
+        return true;
     }
-    std::size_t slots() const { return pos_.size(); }
-    glm::dvec3 position(std::size_t slot) const { return pos_[slot]; }
 
 private:
-    std::size_t index(glm::ivec3 c) const { return (std::size_t(c.z) * dims_.y + c.y) * dims_.x + c.x; }
-    double R2_, cell_ = 0;
+    double cell_ = 0;
     glm::dvec3 lo_;
     glm::ivec3 dims_{0};
-    int reach_ = 1;  ///< cells a query scans to each side
-    std::vector<std::uint32_t> start_, id_;
-    std::vector<glm::dvec3> pos_;
+    int reach_ = 1;
+    bool scans_all_ = false;
 };
 
 /// Compressed rows: the items of row v are item[offset[v] .. offset[v + 1]).
@@ -157,24 +140,72 @@ glm::dvec3 face_cross(const std::vector<glm::dvec3>& p, const std::uint32_t* c) 
 
 }  // namespace
 
-std::vector<float> smoothing_weights(const Mesh& mesh, const float* xyz, std::size_t count, float r, float R) {
+std::vector<float> smoothing_weights(const Mesh& mesh, const ParticleGrid& grid, float r, float R) {
     const std::size_t nv = mesh.vertex_count();
     std::vector<float> w(nv, 0.0f);
-    if (nv == 0 || count == 0) return w;
-    const DenseGrid grid(mesh, xyz, count, R);
+    if (nv == 0 || grid.size() == 0) return w;
+    const SumOrder order(mesh, grid.size(), R);
     const double R2 = double(R) * R;
     // The kernel sum at a vertex on the flat surface of particles at rest spacing 2r: half the
     // interior's, rho * 4 pi R^3 * 16/315 (the integral of (1 - d^2/R^2)^3 over the ball), less
     // the layer of about r between the surface and the outer particles (a factor of about 0.7).
     const double flat = 0.5 * 0.7 * (4.0 * kPi * 16.0 / 315.0) * std::pow(double(R) / (2.0 * r), 3.0);
+    // Share of the way from kWeightLow to kWeightHigh; every step rounds monotonically, so it never
+    // decreases as the sum grows.
+    const auto ramp = [&](double sum) { return std::clamp((sum / flat - kWeightLow) / (kWeightHigh - kWeightLow), 0.0, 1.0); };
+    struct Term {
+        std::uint64_t key;
+        std::uint32_t j;
+        double k;
+        bool operator<(const Term& o) const { return key != o.key ? key < o.key : j < o.j; }
+    };
+    // A partial sum at or above `full` already gives the ramp 1 at SumOrder's whole sum: its terms
+    // are a part of that sum's (all >= 0), so that sum is at least the partial one times
+    // (1 - count 2^-50), count <= grid.size(), and the ramp never decreases. Most vertices of a
+    // large frame stop there, about halfway through their candidates.
+    const double below = 1.0 - 2.0 * double(grid.size() + 1) * 0x1p-50;
+    double full = kWeightHigh * flat * (1.0 + 0x1p-20);
+    if (ramp(full * below) != 1.0) full = INFINITY;  // never seen: then every sum runs to its end
+    tbb::enumerable_thread_specific<std::vector<Term>> scratch;
     for_vertices(nv, [&](std::size_t v) {
-        const glm::dvec3 p(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]);
-        double sum = 0;
-        grid.for_each_within(p, [&](std::size_t, double d2) {
+        const glm::vec3 pf(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]);
+        const glm::dvec3 p(pf);
+        const glm::ivec3 c = order.of_vertex(p);
+        // The terms (1 - d^2/R^2)^3 >= 0 summed in the grid's order. Any order's rounded sum lies
+        // within (n - 1) 2^-53 (1 + small) of the exact sum, so SumOrder's sum lies within
+        // n 2^-50 sum of this one. Where the ramp is the same at both ends of that interval (the
+        // bulk's surface at 1 and splashes at 0: all but a few vertices of a large frame), it is
+        // the same at SumOrder's sum too, and the terms need no sorting.
+        double sum = 0.0;
+        std::size_t n = 0;
+        std::uint64_t key;
+        const bool check = !order.scans_all();
+        grid.for_each_candidate(pf, R, [&](std::uint32_t, glm::vec3 xj) {
+            const glm::dvec3 d = p - glm::dvec3(xj);
+            const double d2 = glm::dot(d, d);
+            if (!(d2 < R2) || (check && !order.key(c, glm::dvec3(xj), key))) return false;
             const double x = 1.0 - d2 / R2;
             sum += x * x * x;
+            ++n;
+            return sum >= full;
         });
-        const double x = std::clamp((sum / flat - kWeightLow) / (kWeightHigh - kWeightLow), 0.0, 1.0);
+        const double slack = 2.0 * double(n + 1) * 0x1p-50 * sum;
+        double x = sum >= full ? 1.0 : ramp(sum);
+        if (sum < full && ramp(sum - slack) != ramp(sum + slack)) {
+            std::vector<Term>& terms = scratch.local();
+            terms.clear();
+            grid.for_each_candidate(pf, R, [&](std::uint32_t j, glm::vec3 xj) {
+                const glm::dvec3 d = p - glm::dvec3(xj);
+                const double d2 = glm::dot(d, d);
+                if (!(d2 < R2) || !order.key(c, glm::dvec3(xj), key)) return;
+                const double y = 1.0 - d2 / R2;
+                terms.push_back({key, j, y * y * y});
+            });
+            std::sort(terms.begin(), terms.end());
+            sum = 0.0;
+            for (const Term& t : terms) sum += t.k;
+            x = ramp(sum);
+        }
         w[v] = float(x * x * (3.0 - 2.0 * x));
     });
     return w;

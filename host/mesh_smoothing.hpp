@@ -17,6 +17,7 @@
 #include <cstddef>
 #include <vector>
 
+#include "core/particle_grid.hpp"
 #include "trilevel/trilevel.hpp"
 
 namespace trilevel {
@@ -29,8 +30,9 @@ namespace trilevel {
 /// get 0 and stay put, those of thin jets and sheets a small weight; the bulk's surface gets 1. Löschner et al. weight by the particles' neighbour
 /// counts, which needs a second neighbour search per particle: measured on the x64 dam break,
 /// that search cost as much as the reconstruction's scalar field, while this one is one search
-/// per vertex. A vertex without particles within R gets 0. `xyz`: `count` particles, world units.
-std::vector<float> smoothing_weights(const Mesh& mesh, const float* xyz, std::size_t count, float r, float R);
+/// per vertex. A vertex without particles within R gets 0. `grid`: the frame's particles (any cell
+/// edge; the reconstruction shares the vertex stages' grid), world units.
+std::vector<float> smoothing_weights(const Mesh& mesh, const ParticleGrid& grid, float r, float R);
 
 struct SmoothingSettings {
     int iterations = 0;        ///< Laplacian steps (with mu != 0: lambda/mu pairs); 0: no smoothing

@@ -16,7 +16,7 @@ namespace {
 
 /// Kernel weights of the particles around one vertex, in grid order.
 struct Weights {
-    std::vector<std::pair<int, double>> w;
+    std::vector<std::pair<std::uint32_t, double>> w;
     double sum = 0.0;
 };
 
@@ -54,7 +54,7 @@ void validate_attributes(const std::vector<ParticleAttribute>& attributes, std::
     }
 }
 
-std::vector<VertexAttribute> interpolate_attributes(const Mesh& mesh, const reference::ParticleGrid& grid,
+std::vector<VertexAttribute> interpolate_attributes(const Mesh& mesh, const ParticleGrid& grid,
                                                     const float* xyz, std::size_t count, float R,
                                                     const std::vector<ParticleAttribute>& attributes) {
     const std::size_t nv = mesh.vertex_count();
@@ -68,14 +68,16 @@ std::vector<VertexAttribute> interpolate_attributes(const Mesh& mesh, const refe
             const glm::vec3 p(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]);
             w.w.clear();
             w.sum = 0.0;
-            grid.for_each_neighbour(p, [&](int j, glm::vec3, double d2) {
-                if (d2 >= R2) return;  // the grid searches R + 2h (vertex_particle_grid)
+            grid.for_each_candidate(p, R, [&](std::uint32_t j, glm::vec3 xj) {
+                const glm::vec3 d = p - xj;
+                const double d2 = double(d.x) * d.x + double(d.y) * d.y + double(d.z) * d.z;
+                if (d2 >= R2) return;
                 const double u = 1.0 - d2 / R2;
                 w.w.emplace_back(j, u * u * u);
                 w.sum += u * u * u;
             });
             if (!(w.sum > 0.0)) {
-                w.w.assign(1, {nearest_particle(xyz, count, p), 1.0});
+                w.w.assign(1, {std::uint32_t(nearest_particle(xyz, count, p)), 1.0});
                 w.sum = 1.0;
             }
             for (std::size_t a = 0; a < attributes.size(); ++a) {

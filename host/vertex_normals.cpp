@@ -33,34 +33,15 @@ double phi_at(const Scratch& s, std::vector<glm::dvec3>& shifted, glm::dvec3 d, 
         const glm::dvec3 z = y - d;
         if (glm::dot(z, z) < R * R) shifted.push_back(z);
     }
-    return reference::field_from_offsets(shifted.data(), shifted.size(), r, R, largest_real_eigenvalue_cubic).phi;
+    return field_from_offsets(shifted.data(), shifted.size(), r, R);
 }
 
 }  // namespace
 
-double largest_real_eigenvalue_cubic(const double J[3][3]) {
-    // Characteristic polynomial l^3 - t l^2 + m l - d; l = u + t/3 gives u^3 + p u + q = 0.
-    const glm::dvec3 a(J[0][0], J[0][1], J[0][2]), b(J[1][0], J[1][1], J[1][2]), c(J[2][0], J[2][1], J[2][2]);
-    const double t = a.x + b.y + c.z;
-    const double m = (a.x * b.y - a.y * b.x) + (a.x * c.z - a.z * c.x) + (b.y * c.z - b.z * c.y);
-    const double d = glm::dot(a, glm::cross(b, c));
-    const double s = t / 3.0, p = m - t * s, q = -d + m * s - 2.0 * s * s * s;
-    const double disc = 0.25 * q * q + p * p * p / 27.0;
-    if (disc <= 0.0 && p < 0.0) {  // three real roots: trigonometric method, the largest
-        const double rho = std::sqrt(-p / 3.0);
-        const double arg = std::clamp(-q / (2.0 * rho * rho * rho), -1.0, 1.0);
-        return 2.0 * rho * std::cos(std::acos(arg) / 3.0) + s;
-    }
-    // one real root u1 and a complex pair of real part -u1/2
-    const double sq = std::sqrt(std::max(disc, 0.0));
-    const double u1 = std::cbrt(-0.5 * q + sq) + std::cbrt(-0.5 * q - sq);
-    return std::max(u1, -0.5 * u1) + s;
-}
+float vertex_search_radius(float r, float R) { return float(R + 2.0 * kGradientStep * r); }
 
-reference::ParticleGrid vertex_particle_grid(const float* xyz, std::size_t count, float r, float R) {
-    std::vector<glm::vec3> x(count);
-    for (std::size_t i = 0; i < count; ++i) x[i] = glm::vec3(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
-    return reference::ParticleGrid(x, float(R + 2.0 * kGradientStep * r));
+ParticleGrid vertex_particle_grid(const float* xyz, std::size_t count, float r, float R) {
+    return ParticleGrid(xyz, count, vertex_search_radius(r, R));
 }
 
 std::vector<float> area_weighted_normals(const Mesh& mesh) {
@@ -79,9 +60,11 @@ std::vector<float> area_weighted_normals(const Mesh& mesh) {
     return out;
 }
 
-std::vector<float> gradient_normals(const Mesh& mesh, const reference::ParticleGrid& grid, float r, float R,
+std::vector<float> gradient_normals(const Mesh& mesh, const ParticleGrid& grid, float r, float R,
                                     const std::vector<float>& fallback) {
     const double h = kGradientStep * r;
+    const float reach = vertex_search_radius(r, R);
+    const double reach2 = double(reach) * reach;
     std::vector<float> out(3 * mesh.vertex_count(), 0.0f);
     tbb::enumerable_thread_specific<Scratch> scratch;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh.vertex_count(), 256), [&](const auto& range) {
@@ -89,7 +72,11 @@ std::vector<float> gradient_normals(const Mesh& mesh, const reference::ParticleG
         for (std::size_t v = range.begin(); v < range.end(); ++v) {
             const glm::vec3 p(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]);
             s.near.clear();
-            grid.for_each_neighbour(p, [&](int, glm::vec3 xj, double) { s.near.push_back(glm::dvec3(xj) - glm::dvec3(p)); });
+            grid.for_each_candidate(p, reach, [&](std::uint32_t, glm::vec3 xj) {
+                const glm::vec3 d = p - xj;  // the test in float differences, as the earlier grid made it
+                if (double(d.x) * d.x + double(d.y) * d.y + double(d.z) * d.z < reach2)
+                    s.near.push_back(glm::dvec3(xj) - glm::dvec3(p));
+            });
             glm::dvec3 g(0.0);
             for (int c = 0; c < 3; ++c) {
                 glm::dvec3 d(0.0);

@@ -253,9 +253,32 @@ MappedFinePoints close_band(OpenCLRuntime& rt, FinePoints& points, std::vector<C
     }
 }
 
+/// A smoothed mesh gets area-weighted normals for NormalMode::Gradient: its vertices left the field's zero set.
+bool gradient_normals_wanted(const Params& p) { return p.normals == NormalMode::Gradient && !p.smooth; }
+
+/// The frame's one particle grid (core/particle_grid.hpp) for the stages after the mesh that read
+/// the particles (smoothing weights, gradient normals, attributes): built by the first of them,
+/// timed with it, shared by the others.
+class FrameGrid {
+public:
+    FrameGrid(const float* xyz, std::size_t n, const Params& p) : xyz_(xyz), n_(n), p_(p) {}
+    const ParticleGrid& get() {
+        if (!grid_) grid_.emplace(vertex_particle_grid(xyz_, n_, p_.particle_radius, p_.kernel_radius * p_.particle_radius));
+        return *grid_;
+    }
+    void release() { grid_.reset(); }
+
+private:
+    const float* xyz_;
+    std::size_t n_;
+    const Params& p_;
+    std::optional<ParticleGrid> grid_;
+};
+
 /// Post-processing for rendering, in world units: sliver cleanup, then smoothing (Params::smooth,
-/// host/sliver_cleanup.hpp, host/mesh_smoothing.hpp), each timed when asked for.
-void postprocess(Mesh& mesh, const float* xyz, std::size_t n, const Params& p, Stats& s) {
+/// host/sliver_cleanup.hpp, host/mesh_smoothing.hpp), each timed when asked for. The grid is
+/// released after the weights unless `keep_grid` (the vertex stages read it later).
+void postprocess(Mesh& mesh, FrameGrid& grid, bool keep_grid, const Params& p, Stats& s) {
     if (!p.smooth && !p.sliver_cleanup) return;
     {
         StageScope stage(s, "sliver_cleanup");
@@ -266,7 +289,8 @@ void postprocess(Mesh& mesh, const float* xyz, std::size_t n, const Params& p, S
         SmoothingSettings settings;
         settings.iterations = p.smooth_iterations > 0 ? p.smooth_iterations : kDefaultSmoothIterations;
         settings.min_volume = smooth_min_volume(p.particle_radius);
-        const std::vector<float> weights = smoothing_weights(mesh, xyz, n, p.particle_radius, p.kernel_radius * p.particle_radius);
+        const std::vector<float> weights = smoothing_weights(mesh, grid.get(), p.particle_radius, p.kernel_radius * p.particle_radius);
+        if (!keep_grid) grid.release();  // freed before the smoothing's own arrays
         s.smoothing_reverted_moves = smooth_mesh(mesh, weights, settings).reverted_moves;
     }
     count_mesh(mesh, s);
@@ -274,25 +298,18 @@ void postprocess(Mesh& mesh, const float* xyz, std::size_t n, const Params& p, S
 }
 
 /// Stage 11 (host/vertex_data.hpp): normals and attributes at the vertices, each timed when asked for.
-/// A smoothed mesh gets area-weighted normals for NormalMode::Gradient: its vertices left the field's zero set.
-void add_vertex_data(Mesh& mesh, const float* xyz, std::size_t n, const Params& p,
+void add_vertex_data(Mesh& mesh, FrameGrid& grid, const float* xyz, std::size_t n, const Params& p,
                      const std::vector<ParticleAttribute>& attributes, Stats& s) {
     if (p.normals == NormalMode::None && attributes.empty()) return;
     const float r = p.particle_radius, R = p.kernel_radius * r;
-    std::optional<reference::ParticleGrid> grid;  // only the area-weighted normals need no particles
-    const bool gradient = p.normals == NormalMode::Gradient && !p.smooth;
-    {  // the particle grid is timed with the first stage that needs it
-        StageScope stage(s, p.normals != NormalMode::None ? "normals" : "attributes");
-        if (gradient || !attributes.empty()) grid.emplace(vertex_particle_grid(xyz, n, r, R));
-    }
     if (p.normals != NormalMode::None) {
         StageScope stage(s, "normals");
         mesh.normals = area_weighted_normals(mesh);
-        if (gradient) mesh.normals = gradient_normals(mesh, *grid, r, R, mesh.normals);
+        if (gradient_normals_wanted(p)) mesh.normals = gradient_normals(mesh, grid.get(), r, R, mesh.normals);
     }
     if (!attributes.empty()) {
         StageScope stage(s, "attributes");
-        mesh.attributes = interpolate_attributes(mesh, *grid, xyz, n, R, attributes);
+        mesh.attributes = interpolate_attributes(mesh, grid.get(), xyz, n, R, attributes);
     }
 }
 
@@ -697,9 +714,10 @@ Mesh Reconstructor::reconstruct(const float* xyz, std::size_t count, const Param
         rt.end_frame();  // the frame's buffers stay pooled for the next one (trimmed when oversized)
         // Post-processing, normals and attributes: world units, after any scaling or split.
         if (params.remove_components_below > 0.0f) remove_components(m, params, s);
-        postprocess(m, xyz, count, params, s);
+        FrameGrid grid(xyz, count, params);  // built by the first stage that reads the particles
+        postprocess(m, grid, gradient_normals_wanted(params) || !attributes.empty(), params, s);
         if (params.clip_box) clip_to_box(m, params, s);  // last: every vertex ends in the box
-        add_vertex_data(m, xyz, count, params, attributes, s);
+        add_vertex_data(m, grid, xyz, count, params, attributes, s);
         s.time_ms.emplace_back("total", std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
         // Program builds first: the constructor's, and any on demand during this frame.
         const OpenCLRuntime::ProgramBuildTimes during = rt.take_program_build_times();

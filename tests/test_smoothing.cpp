@@ -105,7 +105,7 @@ TEST_CASE("sliver cleanup and smoothing keep random meshes closed, their compone
         SmoothingSettings settings;
         settings.iterations = kDefaultSmoothIterations;
         settings.min_volume = smooth_min_volume(r);
-        smooth_mesh(m, smoothing_weights(m, xyz.data(), xyz.size() / 3, r, 4 * r), settings);
+        smooth_mesh(m, smoothing_weights(m, vertex_particle_grid(xyz.data(), xyz.size() / 3, r, 4 * r), r, 4 * r), settings);
         REQUIRE(m.triangles == before.triangles);  // positions only
         REQUIRE(is_closed_and_oriented(m));
         CHECK(sorted_euler(m) == chi0);
@@ -263,4 +263,43 @@ TEST_CASE("smoothing the dam-break frames keeps their droplets, their volume and
         ++frames;
     }
     CHECK(frames == 2);
+}
+
+TEST_CASE("smoothing weights do not depend on the particle grid's cells or layout, and follow the kernel sum", "[smoothing][particle_grid]") {
+    // Their sums run in an order of their own (mesh_smoothing.cpp, SumOrder): a grid of other cells
+    // or the sorted layout must give the same bits, also in the transition band where the sums' last
+    // bits can reach the weight.
+    const float r = 0.025f, R = 4 * r;
+    for (unsigned seed : {2u, 5u}) {
+        const std::vector<float> xyz = random_fluid(seed, r);
+        const std::size_t n = xyz.size() / 3;
+        Params p = params(r);
+        p.sliver_cleanup = true;
+        const Mesh m = reconstructor().reconstruct(xyz.data(), n, p);
+        const std::vector<float> w = smoothing_weights(m, vertex_particle_grid(xyz.data(), n, r, R), r, R);
+        REQUIRE(w.size() == m.vertex_count());
+        for (float cell : {0.5f * R, 1.37f * R, 3.0f * R})
+            for (std::size_t dense_limit : {std::size_t(0), std::size_t(1)}) {
+                const std::vector<float> other = smoothing_weights(m, ParticleGrid(xyz.data(), n, cell, dense_limit), r, R);
+                REQUIRE(std::memcmp(other.data(), w.data(), w.size() * sizeof(float)) == 0);
+            }
+        // Against the brute-force kernel sum (any order: to rounding) and the documented ramp.
+        const double flat = 0.5 * 0.7 * (4.0 * 3.141592653589793 * 16.0 / 315.0) * std::pow(double(R) / (2.0 * r), 3.0);
+        std::size_t band = 0, one = 0;
+        for (std::size_t v = 0; v < m.vertex_count(); ++v) {
+            const glm::dvec3 q(m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]);
+            double sum = 0.0;
+            for (std::size_t j = 0; j < n; ++j) {
+                const glm::dvec3 d = q - glm::dvec3(xyz[3 * j], xyz[3 * j + 1], xyz[3 * j + 2]);
+                const double u = 1.0 - glm::dot(d, d) / (double(R) * R);
+                if (u > 0.0) sum += u * u * u;
+            }
+            const double x = std::clamp((sum / flat - 0.45) / 0.35, 0.0, 1.0);
+            REQUIRE(w[v] == Approx(x * x * (3.0 - 2.0 * x)).margin(1e-6));
+            band += w[v] > 0.0f && w[v] < 1.0f;
+            one += w[v] == 1.0f;
+        }
+        CHECK(band > 100);  // the fallback's vertices are exercised
+        CHECK(one > 100);
+    }
 }

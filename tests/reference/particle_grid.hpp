@@ -1,6 +1,6 @@
-// The neighbour grid and the scalar field of the plain C++ references (tests/reference/), in the
-// library because the vertex stages (host/vertex_normals.cpp, host/vertex_attributes.cpp) use them.
-// Everything else of the references is built into the tests' own library (tests/CMakeLists.txt).
+// The neighbour grid and the scalar field of the plain C++ references (tests/reference/): a hash
+// grid written independently of the library's (src/core/particle_grid.hpp), so that the
+// differential tests compare two implementations.
 #pragma once
 
 #include <cstddef>
