@@ -568,8 +568,8 @@ Mesh Reconstructor::Impl::run_stages(const float* xyz, std::size_t n, const Para
         // Stages "scalar_field" and "band_closure", repeated until the band is closed.
         MappedFinePoints table = close_band(rt, points, cells, g.lattice, bins, r, R, level2, s);
         {
-            // Edge refinement (host/edge_refinement.hpp): true values at the midpoints of crossed
-            // level-2 edges, found, inserted and evaluated on the device. Continuity never touches
+            // Edge refinement (reference: tests/reference/edge_refinement.hpp): true values at the
+            // midpoints of crossed level-2 edges, found, inserted and evaluated on the device. Continuity never touches
             // these points (no level-3 cell holds them), and the values it wrote stay in the table
             // (a rehash copies them).
             StageScope stage(s, "edge_refinement", rt);
