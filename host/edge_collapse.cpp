@@ -119,44 +119,53 @@ void EdgeCollapser::build_index() {
 
 bool EdgeCollapser::makes_crossing(std::uint32_t v, std::uint32_t a, const std::vector<std::uint32_t>& moved) {
     if (!indexed_) build_index();
-    for (std::uint32_t t : moved) {
-        std::uint32_t after[3];
-        glm::dvec3 p[3], q[3];
+    // The moved triangles before and after, and the box around them all after the move.
+    moved_geometry_.resize(moved.size());
+    glm::dvec3 lo(0.0), hi(0.0);
+    for (std::size_t i = 0; i < moved.size(); ++i) {
+        auto& m = moved_geometry_[i];
+        const std::uint32_t* c = corners(moved[i]);
         for (int k = 0; k < 3; ++k) {
-            after[k] = corners(t)[k] == v ? a : corners(t)[k];
-            p[k] = position(corners(t)[k]);
-            q[k] = position(after[k]);
+            m.after[k] = c[k] == v ? a : c[k];
+            m.p[k] = position(c[k]);
+            m.q[k] = position(m.after[k]);
         }
-        const glm::dvec3 lo = corner_min(q), hi = corner_max(q);
-        // Every triangle that can reach the box [lo, hi]: its low corner lies within its extent
-        // below lo, so in the cells from cell(lo - extent) to cell(hi).
-        near_.clear();
-        auto gather = [&](double reach, auto&& visit) {
-            const auto c0 = cell(lo - reach), c1 = cell(hi);
-            for (std::int64_t z = c0[2]; z <= c1[2]; ++z)
-                for (std::int64_t y = c0[1]; y <= c1[1]; ++y)
-                    for (std::int64_t x = c0[0]; x <= c1[0]; ++x) visit(cell_hash(x, y, z));
-        };
-        gather(h_, [&](std::uint64_t key) {
-            const std::uint64_t b = key & bucket_mask_;
-            for (std::uint32_t i = bucket_start_[b]; i < bucket_start_[b + 1]; ++i)
-                if (!moved_tri_[bucket_tris_[i]]) near_.push_back(bucket_tris_[i]);
+        m.lo = corner_min(m.q);
+        m.hi = corner_max(m.q);
+        lo = i ? glm::min(lo, m.lo) : m.lo;
+        hi = i ? glm::max(hi, m.hi) : m.hi;
+    }
+    // Every triangle that can reach the box: its low corner lies within its extent below lo, so
+    // in the cells from cell(lo - extent) to cell(hi).
+    near_.clear();
+    auto gather = [&](double reach, auto&& visit) {
+        const auto c0 = cell(lo - reach), c1 = cell(hi);
+        for (std::int64_t z = c0[2]; z <= c1[2]; ++z)
+            for (std::int64_t y = c0[1]; y <= c1[1]; ++y)
+                for (std::int64_t x = c0[0]; x <= c1[0]; ++x) visit(cell_hash(x, y, z));
+    };
+    gather(h_, [&](std::uint64_t key) {
+        const std::uint64_t b = key & bucket_mask_;
+        for (std::uint32_t i = bucket_start_[b]; i < bucket_start_[b + 1]; ++i)
+            if (!moved_tri_[bucket_tris_[i]]) near_.push_back(bucket_tris_[i]);
+    });
+    if (!moved_cells_.empty())
+        gather(moved_extent_, [&](std::uint64_t key) {
+            if (auto it = moved_cells_.find(key); it != moved_cells_.end()) near_.insert(near_.end(), it->second.begin(), it->second.end());
         });
-        if (!moved_cells_.empty())
-            gather(moved_extent_, [&](std::uint64_t key) {
-                if (auto it = moved_cells_.find(key); it != moved_cells_.end()) near_.insert(near_.end(), it->second.begin(), it->second.end());
-            });
-        for (std::uint32_t u : near_) {
-            if (dead_tri_[u]) continue;
-            const std::uint32_t* b = corners(u);
+    for (std::uint32_t u : near_) {
+        if (dead_tri_[u]) continue;
+        const std::uint32_t* b = corners(u);
+        if (b[0] == v || b[1] == v || b[2] == v) continue;  // v's own triangles: they vanish or move too
+        const glm::dvec3 r[3] = {position(b[0]), position(b[1]), position(b[2])};
+        const glm::dvec3 rlo = corner_min(r), rhi = corner_max(r);
+        if (glm::any(glm::lessThan(rhi, lo)) || glm::any(glm::greaterThan(rlo, hi))) continue;
+        for (const auto& m : moved_geometry_) {
+            if (glm::any(glm::lessThan(rhi, m.lo)) || glm::any(glm::greaterThan(rlo, m.hi))) continue;
             bool shared = false;
             for (int i = 0; i < 3; ++i)
-                for (int j = 0; j < 3; ++j) shared |= b[i] == after[j] || b[i] == v;  // v's own triangles move too
-            if (shared) continue;
-            const glm::dvec3 r[3] = {position(b[0]), position(b[1]), position(b[2])};
-            const glm::dvec3 rlo = corner_min(r), rhi = corner_max(r);
-            if (glm::any(glm::lessThan(rhi, lo)) || glm::any(glm::greaterThan(rlo, hi))) continue;
-            if (triangles_cross(q, r) && !triangles_cross(p, r)) return true;
+                for (int j = 0; j < 3; ++j) shared |= b[i] == m.after[j];
+            if (!shared && triangles_cross(m.q, r) && !triangles_cross(m.p, r)) return true;
         }
     }
     return false;

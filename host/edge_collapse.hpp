@@ -53,7 +53,12 @@ private:
     std::vector<std::uint32_t> bucket_start_, bucket_tris_;
     std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> moved_cells_;
     std::vector<std::uint8_t> moved_tri_;
-    std::vector<std::uint32_t> near_;  // crosses()'s scratch
+    struct MovedTriangle {  // makes_crossing()'s scratch: corners after, positions before and after, box after
+        std::uint32_t after[3];
+        glm::dvec3 p[3], q[3], lo, hi;
+    };
+    std::vector<MovedTriangle> moved_geometry_;
+    std::vector<std::uint32_t> near_;
 
     std::uint32_t* corners(std::uint32_t t) { return m_.triangles.data() + 3 * std::size_t(t); }
     std::vector<std::uint32_t>& alive_triangles(std::uint32_t v);
