@@ -2,8 +2,47 @@
 #include "edge_collapse.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace trilevel {
+
+namespace {
+
+glm::dvec3 corner_min(const glm::dvec3 (&p)[3]) { return glm::min(p[0], glm::min(p[1], p[2])); }
+glm::dvec3 corner_max(const glm::dvec3 (&p)[3]) { return glm::max(p[0], glm::max(p[1], p[2])); }
+double extent(const glm::dvec3 (&p)[3]) {
+    const glm::dvec3 d = corner_max(p) - corner_min(p);
+    return std::max(d.x, std::max(d.y, d.z));
+}
+
+int orient(glm::dvec3 a, glm::dvec3 b, glm::dvec3 c, glm::dvec3 d) {
+    const double o = glm::dot(glm::cross(b - a, c - a), d - a);
+    return (o > 0.0) - (o < 0.0);
+}
+
+// Does segment pq pass through the inside of triangle abc (p and q strictly on either side, the
+// line strictly inside all three edges)? Touching and coplanar contacts do not count.
+bool segment_crosses(glm::dvec3 p, glm::dvec3 q, const glm::dvec3 (&t)[3]) {
+    const int sp = orient(t[0], t[1], t[2], p), sq = orient(t[0], t[1], t[2], q);
+    if (sp == 0 || sq == 0 || sp == sq) return false;
+    const int s0 = orient(p, q, t[0], t[1]), s1 = orient(p, q, t[1], t[2]), s2 = orient(p, q, t[2], t[0]);
+    return s0 != 0 && s0 == s1 && s1 == s2;
+}
+
+// Do two triangles cross (an edge of one through the inside of the other)?
+bool triangles_cross(const glm::dvec3 (&a)[3], const glm::dvec3 (&b)[3]) {
+    for (int k = 0; k < 3; ++k)
+        if (segment_crosses(a[k], a[(k + 1) % 3], b) || segment_crosses(b[k], b[(k + 1) % 3], a)) return true;
+    return false;
+}
+
+std::uint64_t cell_hash(std::int64_t x, std::int64_t y, std::int64_t z) {
+    std::uint64_t h = std::uint64_t(x) * 0x9E3779B97F4A7C15ull ^ std::uint64_t(y) * 0xC2B2AE3D27D4EB4Full ^
+                      std::uint64_t(z) * 0x165667B19E3779F9ull;
+    return h ^ (h >> 29);
+}
+
+}  // namespace
 
 EdgeCollapser::EdgeCollapser(Mesh& mesh, const std::vector<std::uint32_t>& vertices)
     : m_(mesh), list_(mesh.vertex_count(), -1), dead_tri_(mesh.triangle_count(), 0), dead_vertex_(mesh.vertex_count(), 0) {
@@ -32,6 +71,104 @@ bool EdgeCollapser::flips(std::uint32_t t, std::uint32_t v, glm::dvec3 to) {
         if (c[k] == v) q[k] = to;
     const glm::dvec3 before = glm::cross(p[1] - p[0], p[2] - p[0]), after = glm::cross(q[1] - q[0], q[2] - q[0]);
     return glm::dot(before, after) <= 0.0;
+}
+
+std::array<std::int64_t, 3> EdgeCollapser::cell(glm::dvec3 p) const {
+    const glm::dvec3 c = glm::floor((p - origin_) / h_);
+    return {std::int64_t(c.x), std::int64_t(c.y), std::int64_t(c.z)};
+}
+
+// Counting sort of the alive triangles into hashed buckets by their low corner's cell (cells that
+// share a bucket only cost extra tests).
+void EdgeCollapser::build_index() {
+    indexed_ = true;
+    const std::uint32_t nt = std::uint32_t(m_.triangle_count());
+    moved_tri_.assign(nt, 0);
+    glm::dvec3 lo(0.0);
+    double h = 0.0;
+    bool first = true;
+    for (std::uint32_t t = 0; t < nt; ++t) {
+        if (dead_tri_[t]) continue;
+        const std::uint32_t* c = corners(t);
+        const glm::dvec3 p[3] = {position(c[0]), position(c[1]), position(c[2])};
+        lo = first ? corner_min(p) : glm::min(lo, corner_min(p));
+        h = std::max(h, extent(p));
+        first = false;
+    }
+    origin_ = lo;
+    h_ = h > 0.0 && std::isfinite(h) ? h : 1.0;
+    std::uint64_t buckets = 1;
+    while (buckets < std::max<std::uint64_t>(nt / 2, 1)) buckets *= 2;
+    bucket_mask_ = buckets - 1;
+    std::vector<std::uint32_t> bucket(nt);
+    bucket_start_.assign(buckets + 1, 0);
+    for (std::uint32_t t = 0; t < nt; ++t) {
+        if (dead_tri_[t]) continue;
+        const std::uint32_t* c = corners(t);
+        const glm::dvec3 p[3] = {position(c[0]), position(c[1]), position(c[2])};
+        const auto k = cell(corner_min(p));
+        bucket[t] = std::uint32_t(cell_hash(k[0], k[1], k[2]) & bucket_mask_);
+        ++bucket_start_[bucket[t] + 1];
+    }
+    for (std::uint64_t b = 0; b < buckets; ++b) bucket_start_[b + 1] += bucket_start_[b];
+    bucket_tris_.resize(bucket_start_[buckets]);
+    std::vector<std::uint32_t> fill(bucket_start_.begin(), bucket_start_.end() - 1);
+    for (std::uint32_t t = 0; t < nt; ++t)
+        if (!dead_tri_[t]) bucket_tris_[fill[bucket[t]]++] = t;
+}
+
+bool EdgeCollapser::makes_crossing(std::uint32_t v, std::uint32_t a, const std::vector<std::uint32_t>& moved) {
+    if (!indexed_) build_index();
+    // The moved triangles before and after, and the box around them all after the move.
+    moved_geometry_.resize(moved.size());
+    glm::dvec3 lo(0.0), hi(0.0);
+    for (std::size_t i = 0; i < moved.size(); ++i) {
+        auto& m = moved_geometry_[i];
+        const std::uint32_t* c = corners(moved[i]);
+        for (int k = 0; k < 3; ++k) {
+            m.after[k] = c[k] == v ? a : c[k];
+            m.p[k] = position(c[k]);
+            m.q[k] = position(m.after[k]);
+        }
+        m.lo = corner_min(m.q);
+        m.hi = corner_max(m.q);
+        lo = i ? glm::min(lo, m.lo) : m.lo;
+        hi = i ? glm::max(hi, m.hi) : m.hi;
+    }
+    // Every triangle that can reach the box: its low corner lies within its extent below lo, so
+    // in the cells from cell(lo - extent) to cell(hi).
+    near_.clear();
+    auto gather = [&](double reach, auto&& visit) {
+        const auto c0 = cell(lo - reach), c1 = cell(hi);
+        for (std::int64_t z = c0[2]; z <= c1[2]; ++z)
+            for (std::int64_t y = c0[1]; y <= c1[1]; ++y)
+                for (std::int64_t x = c0[0]; x <= c1[0]; ++x) visit(cell_hash(x, y, z));
+    };
+    gather(h_, [&](std::uint64_t key) {
+        const std::uint64_t b = key & bucket_mask_;
+        for (std::uint32_t i = bucket_start_[b]; i < bucket_start_[b + 1]; ++i)
+            if (!moved_tri_[bucket_tris_[i]]) near_.push_back(bucket_tris_[i]);
+    });
+    if (!moved_cells_.empty())
+        gather(moved_extent_, [&](std::uint64_t key) {
+            if (auto it = moved_cells_.find(key); it != moved_cells_.end()) near_.insert(near_.end(), it->second.begin(), it->second.end());
+        });
+    for (std::uint32_t u : near_) {
+        if (dead_tri_[u]) continue;
+        const std::uint32_t* b = corners(u);
+        if (b[0] == v || b[1] == v || b[2] == v) continue;  // v's own triangles: they vanish or move too
+        const glm::dvec3 r[3] = {position(b[0]), position(b[1]), position(b[2])};
+        const glm::dvec3 rlo = corner_min(r), rhi = corner_max(r);
+        if (glm::any(glm::lessThan(rhi, lo)) || glm::any(glm::greaterThan(rlo, hi))) continue;
+        for (const auto& m : moved_geometry_) {
+            if (glm::any(glm::lessThan(rhi, m.lo)) || glm::any(glm::greaterThan(rlo, m.hi))) continue;
+            bool shared = false;
+            for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j) shared |= b[i] == m.after[j];
+            if (!shared && triangles_cross(m.q, r) && !triangles_cross(m.p, r)) return true;
+        }
+    }
+    return false;
 }
 
 bool EdgeCollapser::collapse(std::uint32_t v, std::uint32_t a) {
@@ -68,12 +205,19 @@ bool EdgeCollapser::collapse(std::uint32_t v, std::uint32_t a) {
     const glm::dvec3 to = position(a);
     for (std::uint32_t t : rest)
         if (flips(t, v, to)) return false;
+    if (makes_crossing(v, a, rest)) return false;
     for (std::uint32_t t : edge) dead_tri_[t] = 1;
     for (std::uint32_t t : rest) {
         std::uint32_t* c = corners(t);
         for (int k = 0; k < 3; ++k)
             if (c[k] == v) c[k] = a;
         ta.push_back(t);
+        // Listed again by its new low corner (an entry left in another cell only costs a test).
+        const glm::dvec3 p[3] = {position(c[0]), position(c[1]), position(c[2])};
+        const auto k = cell(corner_min(p));
+        moved_cells_[cell_hash(k[0], k[1], k[2])].push_back(t);
+        moved_tri_[t] = 1;
+        moved_extent_ = std::max(moved_extent_, extent(p));
     }
     tv.clear();
     dead_vertex_[v] = 1;

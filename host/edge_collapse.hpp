@@ -2,12 +2,15 @@
 // (crack closing, crack_collapse.hpp; sliver cleanup, sliver_cleanup.hpp): merging vertex v into a
 // neighbour a removes the two triangles on edge (v, a), and v's other triangles take a instead.
 // A collapse is made only where it keeps the mesh a closed oriented 2-manifold (link condition:
-// v and a share no neighbour but the two apexes of the edge; no tetrahedron folded shut) and
-// turns no triangle over; otherwise nothing changes.
+// v and a share no neighbour but the two apexes of the edge; no tetrahedron folded shut), turns
+// no triangle over and moves none of v's triangles through another triangle (a new crossing with
+// a triangle it shares no vertex with); otherwise nothing changes.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
+#include <unordered_map>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -39,9 +42,32 @@ private:
     std::vector<std::uint8_t> dead_tri_, dead_vertex_;
     std::vector<std::uint32_t> edge_, rest_, nv_, na_;  // collapse()'s scratch, kept to spare allocations
 
+    // The crossing check's spatial index, built on the first collapse that gets that far: every
+    // triangle by the cell (side h_, the largest triangle extent) of its bounding box's low corner,
+    // in hashed buckets; triangles moved by a collapse are listed again in moved_cells_ (their
+    // bucket entries skipped), with moved_extent_ their largest extent.
+    bool indexed_ = false;
+    double h_ = 1.0, moved_extent_ = 0.0;
+    glm::dvec3 origin_{0.0};
+    std::uint64_t bucket_mask_ = 0;
+    std::vector<std::uint32_t> bucket_start_, bucket_tris_;
+    std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> moved_cells_;
+    std::vector<std::uint8_t> moved_tri_;
+    struct MovedTriangle {  // makes_crossing()'s scratch: corners after, positions before and after, box after
+        std::uint32_t after[3];
+        glm::dvec3 p[3], q[3], lo, hi;
+    };
+    std::vector<MovedTriangle> moved_geometry_;
+    std::vector<std::uint32_t> near_;
+
     std::uint32_t* corners(std::uint32_t t) { return m_.triangles.data() + 3 * std::size_t(t); }
     std::vector<std::uint32_t>& alive_triangles(std::uint32_t v);
     bool flips(std::uint32_t t, std::uint32_t v, glm::dvec3 to);
+    void build_index();
+    std::array<std::int64_t, 3> cell(glm::dvec3 p) const;
+    // Would moving v onto a make one of `moved` (v's triangles off edge (v, a)) cross a triangle it
+    // crossed nowhere before and shares no vertex with?
+    bool makes_crossing(std::uint32_t v, std::uint32_t a, const std::vector<std::uint32_t>& moved);
 };
 
 }  // namespace trilevel

@@ -50,12 +50,17 @@ struct Scratch {
 };
 
 // The crossing on the unit edge from `lower` along `axis` with end values va, vb (docs/design.md §7);
-// both sides of a transition face call it with identical arguments.
+// both sides of a transition face call it with identical arguments. origin + step * (lower + t)
+// in double (exact but for the last bits of a double), rounded once to float: in float, lower + t
+// alone would keep t only to 2^-6 of a step at lattice coordinate 2^17.
 glm::vec3 crossing_position(const LatticeFrame& f, glm::ivec3 lower, int axis, float va, float vb) {
     const float t = va / (va - vb);
-    glm::vec3 q(lower);
-    q[axis] += t;
-    return f.origin + f.step * q;
+    glm::vec3 p;
+    for (int k = 0; k < 3; ++k) {
+        const double q = double(lower[k]) + (k == axis ? double(t) : 0.0);
+        p[k] = float(double(f.origin[k]) + double(f.step) * q);
+    }
+    return p;
 }
 
 class CellMesher {

@@ -1,5 +1,5 @@
 // Crack closing by collapse (host/crack_collapse.hpp): the merge itself on small closed meshes,
-// and the link-condition and fold guards that refuse it ([mesh]).
+// and the link-condition, fold and crossing guards that refuse it ([mesh]).
 #include <algorithm>
 
 #include "crack_collapse.hpp"
@@ -75,6 +75,26 @@ TEST_CASE("crack collapse refuses a merge that breaks the link condition or fold
         const Mesh before = m;
         CHECK(collapse_crack_runs(m, {3, 2, 0, 3}) == 0);
         CHECK(m.triangles == before.triangles);
+    }
+    SECTION("a triangle moved through another one") {
+        // A small tetrahedron inside the octahedron, across the plane x = 0: +x moved onto +y (or
+        // -y) brings triangle (-y, +x, +z) (or (+x, +y, +z)) to (-y, +y, +z) in that plane, through
+        // the tetrahedron. Link condition and orientation allow it; the crossing check does not.
+        Mesh m = octahedron();
+        const float lo[3] = {-0.1f, -0.1f, 0.25f};
+        for (int c = 0; c < 4; ++c)
+            for (int k = 0; k < 3; ++k) m.positions.push_back(lo[k] + (c == k + 1 ? 0.2f : 0.0f));
+        for (std::uint32_t i : {0u, 2u, 1u, 0u, 1u, 3u, 0u, 3u, 2u, 1u, 2u, 3u}) m.triangles.push_back(6 + i);
+        m.vertex_level.assign(10, 3);
+        m.triangle_kind.assign(12, TriangleKind::Level3);
+        REQUIRE(is_closed_and_oriented(m));
+        REQUIRE(test::self_intersections(m) == 0);
+        const Mesh before = m;
+        CHECK(collapse_crack_runs(m, {3, 2, 0, 3}) == 0);
+        CHECK(m.triangles == before.triangles);
+        // Without the tetrahedron the same run collapses.
+        Mesh alone = octahedron();
+        CHECK(collapse_crack_runs(alone, {3, 2, 0, 3}) == 1);
     }
 }
 

@@ -159,6 +159,24 @@ TEST_CASE("every ../shared/data frame reconstructs closed and oriented at cells 
     }
 }
 
+TEST_CASE("db23 at r 0.025: no two triangles cross after the crack collapse and the sliver cleanup", "[e2e][shared]") {
+    // Every triangle against its neighbourhood (the frames above sample every third): both collapses
+    // refuse a merge that moves a triangle through another one.
+    TRILEVEL_REQUIRE_SHARED_DATA(dir);
+    const ParticleSet s = read_particles((dir / "dam_break_frame_23_24389_particles.bgeo").string());
+    for (bool sliver : {false, true}) {
+        Params p = params(0.025f, Mode::Adaptive);
+        p.sliver_cleanup = sliver;
+        Stats st;
+        const Mesh m = shared_reconstructor().reconstruct(s.positions.data(), s.size(), p, &st);
+        INFO("sliver cleanup " << sliver);
+        require_closed(m, "db23");
+        CHECK(st.crack_vertices_collapsed > 0);
+        CHECK((st.sliver_edges_collapsed > 0) == sliver);
+        CHECK(test::self_intersections(m) == 0);
+    }
+}
+
 TEST_CASE("bad input to the library is a clear error", "[e2e][errors]") {
     const float ok[6] = {0, 0, 0, 0.05f, 0, 0};
     const float nan[3] = {0, std::nanf(""), 0};

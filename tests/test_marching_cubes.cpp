@@ -286,6 +286,48 @@ TEST_CASE("the crossed level-2 midpoints: every crossed edge of every level-2 ce
     CHECK(edge_refinement_points(s.cells, s.frame, s.field).size() < 20);
 }
 
+TEST_CASE("vertex positions keep float's resolution where lattice coordinates are large", "[mesh][precision]") {
+    // The same field and the same world positions twice: lattice block at coarse cell 0, and at
+    // coarse cell 32768 (lattice coordinate 131072 = 2^17) with the origin moved back by as many
+    // steps, so the world point of every lattice point is the same real number. A vertex is
+    // origin + step * (lower + t) rounded once to float: both placements must agree to within one
+    // float spacing at the vertex (each is within half of it). Rounding lower + t to float first
+    // would keep t only to 2^-6 of a step there (2^17 has 17 of float's 24 bits).
+    const float step = 0.025f;
+    const int shift = 131072;
+    const glm::vec3 near_origin(0.25f, 0.5f, 0.75f);
+    glm::vec3 far_origin;
+    for (int k = 0; k < 3; ++k) {
+        const double o = double(near_origin[k]) - double(step) * shift;
+        far_origin[k] = float(o);
+        REQUIRE(double(far_origin[k]) == o);  // exact: the two frames put every lattice point at one place
+    }
+    for (std::uint8_t level : {std::uint8_t(3), std::uint8_t(2)}) {
+        auto mesh_at = [&](glm::vec3 origin, glm::ivec3 offset) {
+            const LatticeFrame frame{origin, step, 4, {}};
+            const std::vector<CoarseCell> cells = test::block_cells(glm::ivec3(4), offset, level);
+            const glm::dvec3 centre = glm::dvec3(offset * 4) + glm::dvec3(8.3, 7.9, 8.1);
+            const FinePointMap field = test::make_field(cells, frame, [&](glm::ivec3 p) {
+                return float(glm::length(glm::dvec3(p) - centre) - 5.7);
+            });
+            return triangulate_cells(cells, frame, field);
+        };
+        const Mesh a = mesh_at(near_origin, glm::ivec3(0)), b = mesh_at(far_origin, glm::ivec3(shift / 4));
+        INFO("level " << int(level) << ", " << a.vertex_count() << " vertices");
+        REQUIRE(is_closed_and_oriented(a));
+        REQUIRE(a.triangles == b.triangles);
+        REQUIRE(a.positions.size() == b.positions.size());
+        double worst = 0.0;  // in float spacings at the vertex
+        for (std::size_t i = 0; i < a.positions.size(); ++i) {
+            const float x = a.positions[i];
+            const double spacing = double(std::nextafter(std::fabs(x), INFINITY)) - double(std::fabs(x));
+            worst = std::max(worst, std::fabs(double(b.positions[i]) - double(x)) / spacing);
+        }
+        INFO("largest difference " << worst << " float spacings");
+        CHECK(worst <= 1.0);
+    }
+}
+
 TEST_CASE("triangulation is bit-identical for 1 and 2 threads", "[mesh]") {
     SphereSetup s = sphere_setup(20.0, 4, 3);
     auto run = [&](int threads) {
