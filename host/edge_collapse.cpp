@@ -115,6 +115,17 @@ void EdgeCollapser::build_index() {
     std::vector<std::uint32_t> fill(bucket_start_.begin(), bucket_start_.end() - 1);
     for (std::uint32_t t = 0; t < nt; ++t)
         if (!dead_tri_[t]) bucket_tris_[fill[bucket[t]]++] = t;
+    // A listed triangle keeps its corners until it moves (then it is listed in moved_buckets_), and
+    // positions never change, so its box stays true; floats hold the float positions' bounds exactly.
+    moved_buckets_.assign(buckets, {});
+    bucket_lo_.resize(bucket_tris_.size());
+    bucket_hi_.resize(bucket_tris_.size());
+    for (std::size_t i = 0; i < bucket_tris_.size(); ++i) {
+        const std::uint32_t* c = corners(bucket_tris_[i]);
+        const glm::dvec3 p[3] = {position(c[0]), position(c[1]), position(c[2])};
+        bucket_lo_[i] = glm::vec3(corner_min(p));
+        bucket_hi_[i] = glm::vec3(corner_max(p));
+    }
 }
 
 bool EdgeCollapser::makes_crossing(std::uint32_t v, std::uint32_t a, const std::vector<std::uint32_t>& moved) {
@@ -146,12 +157,15 @@ bool EdgeCollapser::makes_crossing(std::uint32_t v, std::uint32_t a, const std::
     };
     gather(h_, [&](std::uint64_t key) {
         const std::uint64_t b = key & bucket_mask_;
-        for (std::uint32_t i = bucket_start_[b]; i < bucket_start_[b + 1]; ++i)
+        for (std::uint32_t i = bucket_start_[b]; i < bucket_start_[b + 1]; ++i) {
+            if (glm::any(glm::lessThan(glm::dvec3(bucket_hi_[i]), lo)) || glm::any(glm::greaterThan(glm::dvec3(bucket_lo_[i]), hi))) continue;
             if (!moved_tri_[bucket_tris_[i]]) near_.push_back(bucket_tris_[i]);
+        }
     });
-    if (!moved_cells_.empty())
+    if (any_moved_)
         gather(moved_extent_, [&](std::uint64_t key) {
-            if (auto it = moved_cells_.find(key); it != moved_cells_.end()) near_.insert(near_.end(), it->second.begin(), it->second.end());
+            const auto& listed = moved_buckets_[key & bucket_mask_];
+            near_.insert(near_.end(), listed.begin(), listed.end());
         });
     for (std::uint32_t u : near_) {
         if (dead_tri_[u]) continue;
@@ -215,7 +229,8 @@ bool EdgeCollapser::collapse(std::uint32_t v, std::uint32_t a) {
         // Listed again by its new low corner (an entry left in another cell only costs a test).
         const glm::dvec3 p[3] = {position(c[0]), position(c[1]), position(c[2])};
         const auto k = cell(corner_min(p));
-        moved_cells_[cell_hash(k[0], k[1], k[2])].push_back(t);
+        moved_buckets_[cell_hash(k[0], k[1], k[2]) & bucket_mask_].push_back(t);
+        any_moved_ = true;
         moved_tri_[t] = 1;
         moved_extent_ = std::max(moved_extent_, extent(p));
     }

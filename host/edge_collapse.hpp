@@ -10,7 +10,6 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
-#include <unordered_map>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -44,14 +43,16 @@ private:
 
     // The crossing check's spatial index, built on the first collapse that gets that far: every
     // triangle by the cell (side h_, the largest triangle extent) of its bounding box's low corner,
-    // in hashed buckets; triangles moved by a collapse are listed again in moved_cells_ (their
-    // bucket entries skipped), with moved_extent_ their largest extent.
+    // in hashed buckets; triangles moved by a collapse are listed again in moved_buckets_ (the same
+    // hashing; their first entries skipped), with moved_extent_ their largest extent.
     bool indexed_ = false;
     double h_ = 1.0, moved_extent_ = 0.0;
     glm::dvec3 origin_{0.0};
     std::uint64_t bucket_mask_ = 0;
     std::vector<std::uint32_t> bucket_start_, bucket_tris_;
-    std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> moved_cells_;
+    std::vector<glm::vec3> bucket_lo_, bucket_hi_;  // each bucket_tris_ entry's box: read in order, not via its corners
+    std::vector<std::vector<std::uint32_t>> moved_buckets_;
+    bool any_moved_ = false;
     std::vector<std::uint8_t> moved_tri_;
     struct MovedTriangle {  // makes_crossing()'s scratch: corners after, positions before and after, box after
         std::uint32_t after[3];
