@@ -271,6 +271,17 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
             }
         }
     };
+    // Accepts the moves p -> q less those guard() takes back.
+    auto accept = [&] {
+        guard();
+        std::swap(p, q);
+    };
+    // Accepts the moves made since `from`, checked as one: p becomes the guarded positions.
+    auto accept_since = [&](std::vector<glm::dvec3>& from) {
+        q.swap(p);
+        p.swap(from);
+        accept();
+    };
     std::vector<glm::dvec3> normal(nv, glm::dvec3(0.0));
     auto vertex_normals = [&] {
         for_vertices(nv, [&](std::size_t v) {
@@ -302,10 +313,7 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
         laplacian_step(settings.lambda);
         if (settings.mu != 0.0) laplacian_step(settings.mu);
     }
-    q.swap(p);
-    p.swap(before);
-    guard();
-    std::swap(p, q);
+    accept_since(before);
 
     // Two fields are averaged over a wide neighbourhood, in the same rounds of averaging over the
     // 1-ring (a reach of about sqrt(rounds) edges): the normal part of each vertex's whole move,
@@ -353,8 +361,7 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
     }
     if (settings.shrink_passes > 0) {
         for_vertices(nv, [&](std::size_t v) { q[v] = p[v] - (shrink[v] * double(w[v])) * normal[v]; });
-        guard();
-        std::swap(p, q);
+        accept();
     }
     if (follow_normals) {
         std::vector<glm::dvec3> face_normal(nt), centroid(nt);
@@ -391,10 +398,7 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
                 return d - normal[v] * glm::dot(d, normal[v]);
             });
         }
-        q.swap(p);
-        p.swap(before);
-        guard();
-        std::swap(p, q);
+        accept_since(before);
     }
     if (settings.keep_volume) {
         // Newton steps on the offset d of each component along its unit vertex normals n_v: the
@@ -433,8 +437,7 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
                 const double d = slope[k] > 0 ? std::clamp((volume0[k] - volume[k]) / slope[k], -limit, limit) : 0.0;
                 q[v] = p[v] + d * normal[v];
             });
-            guard();
-            std::swap(p, q);
+            accept();
         }
     }
     for (std::size_t v = 0; v < nv; ++v)
