@@ -304,24 +304,31 @@ struct PyFramePipeline {
     std::optional<trilevel::FramePipeline> pipe;
 };
 
-/// The types of ReconstructOptions' fields, in order: the bound functions take these after
-/// positions and particle_radius and build the struct from them (aggregate initialisation).
-using OptionTypes = std::tuple<std::string, float, float, float, float, std::uint64_t, float, std::string, float,
-                               std::optional<std::vector<double>>, std::optional<std::vector<double>>, bool, int, bool,
-                               std::optional<std::string>,
-                               std::optional<py::dict>, bool>;
+/// The types of ReconstructOptions' fields up to normals, in order: the bound functions take
+/// these after positions and particle_radius and build the struct from them (aggregate
+/// initialisation); reconstruct also takes attributes and return_levels.
+using MeshOptionTypes = std::tuple<std::string, float, float, float, float, std::uint64_t, float, std::string, float,
+                                   std::optional<std::vector<double>>, std::optional<std::vector<double>>, bool, int, bool,
+                                   std::optional<std::string>>;
+using OptionTypes = decltype(std::tuple_cat(std::declval<MeshOptionTypes>(), std::tuple<std::optional<py::dict>, bool>()));
+
+/// The keywords of MeshOptionTypes' fields, with their defaults.
+auto mesh_option_keywords() {
+    return std::make_tuple(keyword("mode"), keyword("cell"), keyword("kernel_radius"), keyword("curvature_threshold"),
+                           keyword("level2_tolerance"), keyword("memory_limit"), keyword("level_hysteresis"),
+                           keyword("crack_closing"), keyword("remove_components_below"), keyword("particle_box"),
+                           keyword("clip_box"), keyword("smooth"), keyword("smooth_iterations"), keyword("sliver_cleanup"),
+                           keyword("normals"));
+}
 
 /// Defines Reconstructor.reconstruct (on `cls`) and reconstruct() (on `m`, with a device) with the
 /// keyword arguments below, which name ReconstructOptions' fields in order with their defaults.
 template <class... Option>
 void define_reconstruct(py::class_<PyReconstructor>& cls, py::module_& m, const char* method_doc, const char* function_doc,
                         std::tuple<Option...>*) {
-    const auto args = std::make_tuple(
-        py::arg("positions"), py::arg("particle_radius"), py::kw_only(), keyword("mode"), keyword("cell"),
-        keyword("kernel_radius"), keyword("curvature_threshold"), keyword("level2_tolerance"), keyword("memory_limit"),
-        keyword("level_hysteresis"), keyword("crack_closing"), keyword("remove_components_below"), keyword("particle_box"),
-        keyword("clip_box"), keyword("smooth"), keyword("smooth_iterations"), keyword("sliver_cleanup"), keyword("normals"),
-        py::arg("attributes") = py::none(), py::arg("return_levels") = false);
+    const auto args = std::tuple_cat(std::make_tuple(py::arg("positions"), py::arg("particle_radius"), py::kw_only()),
+                                     mesh_option_keywords(),
+                                     std::make_tuple(py::arg("attributes") = py::none(), py::arg("return_levels") = false));
     std::apply([&](auto... a) {
         cls.def("reconstruct",
                 [](PyReconstructor& rec, const Array<float>& positions, float particle_radius, Option... option) {
@@ -338,6 +345,20 @@ void define_reconstruct(py::class_<PyReconstructor>& cls, py::module_& m, const 
                   return rec->reconstruct(positions, particle_radius, ReconstructOptions{std::move(option)...});
               },
               function_doc, a..., py::arg("device") = -1);
+    }, args);
+}
+
+/// Defines FramePipeline(reconstructor, particle_radius, *, <MeshOptionTypes' keywords>) on `cls`.
+template <class... Option>
+void define_pipeline_init(py::class_<PyFramePipeline>& cls, std::tuple<Option...>*) {
+    const auto args = std::tuple_cat(std::make_tuple(py::arg("reconstructor"), py::arg("particle_radius"), py::kw_only()),
+                                     mesh_option_keywords(), std::make_tuple(py::keep_alive<1, 2>()));
+    std::apply([&](auto... a) {
+        cls.def(py::init([](PyReconstructor& rec, float particle_radius, Option... option) {
+                    return std::make_unique<PyFramePipeline>(
+                        rec, particle_radius, ReconstructOptions{std::move(option)..., std::nullopt, false});
+                }),
+                a...);
     }, args);
 }
 
@@ -458,37 +479,9 @@ reconstructor: a trilevel.Reconstructor, not to be used otherwise until finish()
 push(positions) and finish() return lists of (index, vertices, triangles, stats[, normals]) in frame
 order (index: 0 for the first push), or (index, None, None, message) for a frame that failed (the
 next frames go on). finish() waits for every frame; no push after it.)";
-    py::class_<PyFramePipeline>(m, "FramePipeline", pipeline_doc.c_str())
-        .def(py::init([](PyReconstructor& rec, float particle_radius, std::string mode, float cell, float kernel_radius,
-                         float curvature_threshold, float level2_tolerance, std::uint64_t memory_limit, float level_hysteresis,
-                         std::string crack_closing, float remove_components_below, std::optional<std::vector<double>> particle_box,
-                         std::optional<std::vector<double>> clip_box, bool smooth, int smooth_iterations, bool sliver_cleanup,
-                         std::optional<std::string> normals) {
-                 ReconstructOptions o;
-                 o.mode = std::move(mode);
-                 o.cell = cell;
-                 o.kernel_radius = kernel_radius;
-                 o.curvature_threshold = curvature_threshold;
-                 o.level2_tolerance = level2_tolerance;
-                 o.memory_limit = memory_limit;
-                 o.level_hysteresis = level_hysteresis;
-                 o.crack_closing = std::move(crack_closing);
-                 o.remove_components_below = remove_components_below;
-                 o.particle_box = std::move(particle_box);
-                 o.clip_box = std::move(clip_box);
-                 o.smooth = smooth;
-                 o.smooth_iterations = smooth_iterations;
-                 o.sliver_cleanup = sliver_cleanup;
-                 o.normals = std::move(normals);
-                 return std::make_unique<PyFramePipeline>(rec, particle_radius, o);
-             }),
-             py::arg("reconstructor"), py::arg("particle_radius"), py::kw_only(), keyword("mode"), keyword("cell"),
-             keyword("kernel_radius"), keyword("curvature_threshold"), keyword("level2_tolerance"), keyword("memory_limit"),
-             keyword("level_hysteresis"), keyword("crack_closing"), keyword("remove_components_below"),
-             keyword("particle_box"), keyword("clip_box"), keyword("smooth"), keyword("smooth_iterations"),
-             keyword("sliver_cleanup"), keyword("normals"),
-             py::keep_alive<1, 2>())
-        .def("push", &PyFramePipeline::push, py::arg("positions"),
+    py::class_<PyFramePipeline> pipeline(m, "FramePipeline", pipeline_doc.c_str());
+    define_pipeline_init(pipeline, static_cast<MeshOptionTypes*>(nullptr));
+    pipeline.def("push", &PyFramePipeline::push, py::arg("positions"),
              "Hands the next frame's (n, 3) positions over (copied); returns the frames finished so far.")
         .def("finish", &PyFramePipeline::finish, "Waits for every frame; returns the frames not yet returned.");
 
