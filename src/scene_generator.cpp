@@ -40,11 +40,11 @@ public:
 
     /// Adds a particle at lattice coordinates (x, y, z) plus jitter of `jitter` spacings.
     void add(double x, double y, double z, double jitter = kJitter) {
-        const double p[3] = {x, y, z};
-        for (double c : p) out_.positions.push_back(static_cast<float>((c + jitter * rng_.symmetric()) * spacing_));
+        const glm::dvec3 p = jittered(x, y, z, jitter);
+        place(p.x, p.y, p.z);
     }
 
-    /// (x, y, z) plus jitter of `jitter` spacings per axis, lattice units (the draws of add()).
+    /// (x, y, z) plus jitter of `jitter` spacings per axis, lattice units.
     glm::dvec3 jittered(double x, double y, double z, double jitter) {
         const double dx = jitter * rng_.symmetric(), dy = jitter * rng_.symmetric(), dz = jitter * rng_.symmetric();
         return {x + dx, y + dy, z + dz};
