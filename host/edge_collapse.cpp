@@ -10,36 +10,34 @@ namespace {
 
 glm::dvec3 corner_min(const glm::dvec3 (&p)[3]) { return glm::min(p[0], glm::min(p[1], p[2])); }
 glm::dvec3 corner_max(const glm::dvec3 (&p)[3]) { return glm::max(p[0], glm::max(p[1], p[2])); }
-double extent(const glm::dvec3 (&p)[3]) {
-    const glm::dvec3 d = corner_max(p) - corner_min(p);
-    return std::max(d.x, std::max(d.y, d.z));
-}
 
 int orient(glm::dvec3 a, glm::dvec3 b, glm::dvec3 c, glm::dvec3 d) {
     const double o = glm::dot(glm::cross(b - a, c - a), d - a);
     return (o > 0.0) - (o < 0.0);
 }
 
-// Does segment pq pass through the inside of triangle abc (p and q strictly on either side, the
-// line strictly inside all three edges)? Touching and coplanar contacts do not count.
-bool segment_crosses(glm::dvec3 p, glm::dvec3 q, const glm::dvec3 (&t)[3]) {
-    const int sp = orient(t[0], t[1], t[2], p), sq = orient(t[0], t[1], t[2], q);
+// Does segment pq, whose ends lie on sides sp and sq of triangle t's plane, pass through the
+// inside of t (p and q strictly on either side, the line strictly inside all three edges)?
+// Touching and coplanar contacts do not count.
+bool segment_crosses(glm::dvec3 p, glm::dvec3 q, int sp, int sq, const glm::dvec3 (&t)[3]) {
     if (sp == 0 || sq == 0 || sp == sq) return false;
     const int s0 = orient(p, q, t[0], t[1]), s1 = orient(p, q, t[1], t[2]), s2 = orient(p, q, t[2], t[0]);
     return s0 != 0 && s0 == s1 && s1 == s2;
 }
 
-// Do two triangles cross (an edge of one through the inside of the other)?
+// Do two triangles cross (an edge of one through the inside of the other)? Each corner's side of
+// the other's plane is taken once; most pairs end there, every corner on one side.
 bool triangles_cross(const glm::dvec3 (&a)[3], const glm::dvec3 (&b)[3]) {
-    for (int k = 0; k < 3; ++k)
-        if (segment_crosses(a[k], a[(k + 1) % 3], b) || segment_crosses(b[k], b[(k + 1) % 3], a)) return true;
+    int sa[3], sb[3];
+    for (int k = 0; k < 3; ++k) {
+        sa[k] = orient(b[0], b[1], b[2], a[k]);
+        sb[k] = orient(a[0], a[1], a[2], b[k]);
+    }
+    for (int k = 0; k < 3; ++k) {
+        const int l = (k + 1) % 3;
+        if (segment_crosses(a[k], a[l], sa[k], sa[l], b) || segment_crosses(b[k], b[l], sb[k], sb[l], a)) return true;
+    }
     return false;
-}
-
-std::uint64_t cell_hash(std::int64_t x, std::int64_t y, std::int64_t z) {
-    std::uint64_t h = std::uint64_t(x) * 0x9E3779B97F4A7C15ull ^ std::uint64_t(y) * 0xC2B2AE3D27D4EB4Full ^
-                      std::uint64_t(z) * 0x165667B19E3779F9ull;
-    return h ^ (h >> 29);
 }
 
 }  // namespace
@@ -73,63 +71,8 @@ bool EdgeCollapser::flips(std::uint32_t t, std::uint32_t v, glm::dvec3 to) {
     return glm::dot(before, after) <= 0.0;
 }
 
-std::array<std::int64_t, 3> EdgeCollapser::cell(glm::dvec3 p) const {
-    const glm::dvec3 c = glm::floor((p - origin_) / h_);
-    return {std::int64_t(c.x), std::int64_t(c.y), std::int64_t(c.z)};
-}
-
-// Counting sort of the alive triangles into hashed buckets by their low corner's cell (cells that
-// share a bucket only cost extra tests).
-void EdgeCollapser::build_index() {
-    indexed_ = true;
-    const std::uint32_t nt = std::uint32_t(m_.triangle_count());
-    moved_tri_.assign(nt, 0);
-    glm::dvec3 lo(0.0);
-    double h = 0.0;
-    bool first = true;
-    for (std::uint32_t t = 0; t < nt; ++t) {
-        if (dead_tri_[t]) continue;
-        const std::uint32_t* c = corners(t);
-        const glm::dvec3 p[3] = {position(c[0]), position(c[1]), position(c[2])};
-        lo = first ? corner_min(p) : glm::min(lo, corner_min(p));
-        h = std::max(h, extent(p));
-        first = false;
-    }
-    origin_ = lo;
-    h_ = h > 0.0 && std::isfinite(h) ? h : 1.0;
-    std::uint64_t buckets = 1;
-    while (buckets < std::max<std::uint64_t>(nt / 2, 1)) buckets *= 2;
-    bucket_mask_ = buckets - 1;
-    std::vector<std::uint32_t> bucket(nt);
-    bucket_start_.assign(buckets + 1, 0);
-    for (std::uint32_t t = 0; t < nt; ++t) {
-        if (dead_tri_[t]) continue;
-        const std::uint32_t* c = corners(t);
-        const glm::dvec3 p[3] = {position(c[0]), position(c[1]), position(c[2])};
-        const auto k = cell(corner_min(p));
-        bucket[t] = std::uint32_t(cell_hash(k[0], k[1], k[2]) & bucket_mask_);
-        ++bucket_start_[bucket[t] + 1];
-    }
-    for (std::uint64_t b = 0; b < buckets; ++b) bucket_start_[b + 1] += bucket_start_[b];
-    bucket_tris_.resize(bucket_start_[buckets]);
-    std::vector<std::uint32_t> fill(bucket_start_.begin(), bucket_start_.end() - 1);
-    for (std::uint32_t t = 0; t < nt; ++t)
-        if (!dead_tri_[t]) bucket_tris_[fill[bucket[t]]++] = t;
-    // A listed triangle keeps its corners until it moves (then it is listed in moved_buckets_), and
-    // positions never change, so its box stays true; floats hold the float positions' bounds exactly.
-    moved_buckets_.assign(buckets, {});
-    bucket_lo_.resize(bucket_tris_.size());
-    bucket_hi_.resize(bucket_tris_.size());
-    for (std::size_t i = 0; i < bucket_tris_.size(); ++i) {
-        const std::uint32_t* c = corners(bucket_tris_[i]);
-        const glm::dvec3 p[3] = {position(c[0]), position(c[1]), position(c[2])};
-        bucket_lo_[i] = glm::vec3(corner_min(p));
-        bucket_hi_[i] = glm::vec3(corner_max(p));
-    }
-}
-
 bool EdgeCollapser::makes_crossing(std::uint32_t v, std::uint32_t a, const std::vector<std::uint32_t>& moved) {
-    if (!indexed_) build_index();
+    if (!grid_) grid_.emplace(m_, dead_tri_);
     // The moved triangles before and after, and the box around them all after the move.
     moved_geometry_.resize(moved.size());
     glm::dvec3 lo(0.0), hi(0.0);
@@ -146,27 +89,8 @@ bool EdgeCollapser::makes_crossing(std::uint32_t v, std::uint32_t a, const std::
         lo = i ? glm::min(lo, m.lo) : m.lo;
         hi = i ? glm::max(hi, m.hi) : m.hi;
     }
-    // Every triangle that can reach the box: its low corner lies within its extent below lo, so
-    // in the cells from cell(lo - extent) to cell(hi).
     near_.clear();
-    auto gather = [&](double reach, auto&& visit) {
-        const auto c0 = cell(lo - reach), c1 = cell(hi);
-        for (std::int64_t z = c0[2]; z <= c1[2]; ++z)
-            for (std::int64_t y = c0[1]; y <= c1[1]; ++y)
-                for (std::int64_t x = c0[0]; x <= c1[0]; ++x) visit(cell_hash(x, y, z));
-    };
-    gather(h_, [&](std::uint64_t key) {
-        const std::uint64_t b = key & bucket_mask_;
-        for (std::uint32_t i = bucket_start_[b]; i < bucket_start_[b + 1]; ++i) {
-            if (glm::any(glm::lessThan(glm::dvec3(bucket_hi_[i]), lo)) || glm::any(glm::greaterThan(glm::dvec3(bucket_lo_[i]), hi))) continue;
-            if (!moved_tri_[bucket_tris_[i]]) near_.push_back(bucket_tris_[i]);
-        }
-    });
-    if (any_moved_)
-        gather(moved_extent_, [&](std::uint64_t key) {
-            const auto& listed = moved_buckets_[key & bucket_mask_];
-            near_.insert(near_.end(), listed.begin(), listed.end());
-        });
+    grid_->for_each_near(lo, hi, [&](std::uint32_t t) { near_.push_back(t); });
     for (std::uint32_t u : near_) {
         if (dead_tri_[u]) continue;
         const std::uint32_t* b = corners(u);
@@ -226,25 +150,21 @@ bool EdgeCollapser::collapse(std::uint32_t v, std::uint32_t a) {
         for (int k = 0; k < 3; ++k)
             if (c[k] == v) c[k] = a;
         ta.push_back(t);
-        // Listed again by its new low corner (an entry left in another cell only costs a test).
         const glm::dvec3 p[3] = {position(c[0]), position(c[1]), position(c[2])};
-        const auto k = cell(corner_min(p));
-        moved_buckets_[cell_hash(k[0], k[1], k[2]) & bucket_mask_].push_back(t);
-        any_moved_ = true;
-        moved_tri_[t] = 1;
-        moved_extent_ = std::max(moved_extent_, extent(p));
+        if (grid_) grid_->relist(t, corner_min(p), corner_max(p));
     }
     tv.clear();
     dead_vertex_[v] = 1;
     return true;
 }
 
-void EdgeCollapser::compact() {
-    std::vector<std::uint32_t> id(m_.vertex_count());
+std::vector<std::uint32_t> EdgeCollapser::compact() {
+    std::vector<std::uint32_t> id(m_.vertex_count()), kept_vertices;
     std::uint32_t n = 0;
     for (std::uint32_t v = 0; v < m_.vertex_count(); ++v) {
         id[v] = n;
         if (dead_vertex_[v]) continue;
+        kept_vertices.push_back(v);
         for (int k = 0; k < 3; ++k) m_.positions[3 * std::size_t(n) + k] = m_.positions[3 * std::size_t(v) + k];
         m_.vertex_level[n++] = m_.vertex_level[v];
     }
@@ -258,6 +178,7 @@ void EdgeCollapser::compact() {
     }
     m_.triangles.resize(3 * kept);
     m_.triangle_kind.resize(kept);
+    return kept_vertices;
 }
 
 }  // namespace trilevel

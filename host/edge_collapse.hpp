@@ -7,13 +7,14 @@
 // a triangle it shares no vertex with); otherwise nothing changes.
 #pragma once
 
-#include <array>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include <glm/glm.hpp>
 
+#include "triangle_grid.hpp"
 #include "trilevel/trilevel.hpp"
 
 namespace trilevel {
@@ -27,8 +28,9 @@ public:
     /// that is not safe or (v, a) is no edge (any more).
     bool collapse(std::uint32_t v, std::uint32_t a);
     /// Drops the dead vertices and triangles, keeping the order of the rest (positions, levels,
-    /// triangle kinds; the mesh has no normals or attributes yet).
-    void compact();
+    /// triangle kinds; the mesh has no normals or attributes yet). Returns the old index of each
+    /// vertex left, ascending.
+    std::vector<std::uint32_t> compact();
     glm::dvec3 position(std::uint32_t v) const {
         return {m_.positions[3 * v], m_.positions[3 * v + 1], m_.positions[3 * v + 2]};
     }
@@ -41,19 +43,7 @@ private:
     std::vector<std::uint8_t> dead_tri_, dead_vertex_;
     std::vector<std::uint32_t> edge_, rest_, nv_, na_;  // collapse()'s scratch, kept to spare allocations
 
-    // The crossing check's spatial index, built on the first collapse that gets that far: every
-    // triangle by the cell (side h_, the largest triangle extent) of its bounding box's low corner,
-    // in hashed buckets; triangles moved by a collapse are listed again in moved_buckets_ (the same
-    // hashing; their first entries skipped), with moved_extent_ their largest extent.
-    bool indexed_ = false;
-    double h_ = 1.0, moved_extent_ = 0.0;
-    glm::dvec3 origin_{0.0};
-    std::uint64_t bucket_mask_ = 0;
-    std::vector<std::uint32_t> bucket_start_, bucket_tris_;
-    std::vector<glm::vec3> bucket_lo_, bucket_hi_;  // each bucket_tris_ entry's box: read in order, not via its corners
-    std::vector<std::vector<std::uint32_t>> moved_buckets_;
-    bool any_moved_ = false;
-    std::vector<std::uint8_t> moved_tri_;
+    std::optional<TriangleGrid> grid_;  // the crossing check's, made on its first query
     struct MovedTriangle {  // makes_crossing()'s scratch: corners after, positions before and after, box after
         std::uint32_t after[3];
         glm::dvec3 p[3], q[3], lo, hi;
@@ -64,8 +54,6 @@ private:
     std::uint32_t* corners(std::uint32_t t) { return m_.triangles.data() + 3 * std::size_t(t); }
     std::vector<std::uint32_t>& alive_triangles(std::uint32_t v);
     bool flips(std::uint32_t t, std::uint32_t v, glm::dvec3 to);
-    void build_index();
-    std::array<std::int64_t, 3> cell(glm::dvec3 p) const;
     // Would moving v onto a make one of `moved` (v's triangles off edge (v, a)) cross a triangle it
     // crossed nowhere before and shares no vertex with?
     bool makes_crossing(std::uint32_t v, std::uint32_t a, const std::vector<std::uint32_t>& moved);

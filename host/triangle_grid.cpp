@@ -1,0 +1,89 @@
+// Triangles in a uniform grid; see triangle_grid.hpp.
+#include "triangle_grid.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace trilevel {
+
+TriangleGrid::TriangleGrid(const Mesh& mesh, const std::vector<std::uint8_t>& dead) {
+    const std::uint32_t nt = std::uint32_t(mesh.triangle_count());
+    relisted_.assign(nt, 0);
+    stamp_.assign(nt, 0);
+    // Boxes in floats: they hold the float positions' bounds exactly. Taken again in each pass
+    // below rather than kept (two more arrays as large as the entries').
+    const float* x = mesh.positions.data();
+    auto box = [&](std::uint32_t t, glm::vec3& lo, glm::vec3& hi) {
+        const std::uint32_t* c = mesh.triangles.data() + 3 * std::size_t(t);
+        const glm::vec3 p0(x[3 * c[0]], x[3 * c[0] + 1], x[3 * c[0] + 2]), p1(x[3 * c[1]], x[3 * c[1] + 1], x[3 * c[1] + 2]),
+            p2(x[3 * c[2]], x[3 * c[2] + 1], x[3 * c[2] + 2]);
+        lo = glm::min(p0, glm::min(p1, p2));
+        hi = glm::max(p0, glm::max(p1, p2));
+    };
+    glm::vec3 low(0.0f), high(0.0f), lo, hi;
+    float extent = 0.0f;
+    bool first = true;
+    for (std::uint32_t t = 0; t < nt; ++t) {
+        if (dead[t]) continue;
+        box(t, lo, hi);
+        const glm::vec3 d = hi - lo;
+        low = first ? lo : glm::min(low, lo);
+        high = first ? hi : glm::max(high, hi);
+        extent = std::max(extent, std::max(d.x, std::max(d.y, d.z)));
+        first = false;
+    }
+    // Cells of the largest extent, grown by factors of 1.5 while the grid over the mesh's box
+    // would have more than max(4 triangles, 2^20) cells.
+    origin_ = glm::dvec3(low);
+    reach_ = double(extent);
+    cell_ = extent > 0.0f && std::isfinite(extent) ? double(extent) : 1.0;
+    const glm::dvec3 size = glm::dvec3(high) - origin_;
+    const double limit = std::max(4.0 * double(nt), double(1 << 20));
+    auto cells = [&](double side) { return glm::floor(size / side) + 1.0; };
+    while (cells(cell_).x * cells(cell_).y * cells(cell_).z > limit) cell_ *= 1.5;
+    dims_ = glm::ivec3(cells(cell_));
+    const std::size_t count = std::size_t(dims_.x) * std::size_t(dims_.y) * std::size_t(dims_.z);
+
+    // Counting sort by cell; the triangles' order within a cell is theirs.
+    std::vector<std::uint32_t> of(nt);
+    start_.assign(count + 1, 0);
+    for (std::uint32_t t = 0; t < nt; ++t) {
+        if (dead[t]) continue;
+        box(t, lo, hi);
+        const glm::ivec3 k = cell(lo);
+        of[t] = std::uint32_t(index(k.x, k.y, k.z));
+        ++start_[of[t] + 1];
+    }
+    for (std::size_t c = 0; c < count; ++c) start_[c + 1] += start_[c];
+    entry_.resize(start_[count]);
+    entry_lo_.resize(entry_.size());
+    entry_hi_.resize(entry_.size());
+    std::vector<std::uint32_t> fill(start_.begin(), start_.end() - 1);
+    for (std::uint32_t t = 0; t < nt; ++t) {
+        if (dead[t]) continue;
+        const std::uint32_t i = fill[of[t]]++;
+        entry_[i] = t;
+        box(t, entry_lo_[i], entry_hi_[i]);
+    }
+    moved_head_.assign(count, ~0u);
+    moved_in_row_.assign(std::size_t(dims_.y) * std::size_t(dims_.z), 0);
+}
+
+glm::ivec3 TriangleGrid::cell(glm::dvec3 p) const {
+    const glm::dvec3 c = glm::clamp(glm::floor((p - origin_) / cell_), glm::dvec3(0.0), glm::dvec3(dims_ - 1));
+    return glm::ivec3(c);
+}
+
+void TriangleGrid::relist(std::uint32_t t, glm::dvec3 lo, glm::dvec3 hi) {
+    const glm::ivec3 k = cell(lo);
+    const std::size_t c = index(k.x, k.y, k.z);
+    moved_tri_.push_back(t);
+    moved_next_.push_back(moved_head_[c]);
+    moved_head_[c] = std::uint32_t(moved_tri_.size() - 1);
+    ++moved_in_row_[std::size_t(k.z) * std::size_t(dims_.y) + std::size_t(k.y)];
+    relisted_[t] = 1;
+    const glm::dvec3 d = hi - lo;
+    reach_ = std::max(reach_, std::max(d.x, std::max(d.y, d.z)));
+}
+
+}  // namespace trilevel

@@ -1,0 +1,81 @@
+// The triangles of a mesh in a uniform grid, for "which triangles can touch this box?" queries
+// while the mesh changes (edge_collapse.hpp's crossing check). Each triangle is listed once, in
+// the cell of its bounding box's low corner; with cells at least as large as every triangle, the
+// triangles overlapping a box lie in the cells from the box's low corner less one triangle extent
+// to its high corner: 3 x 3 x 3 cells for a box of one cell. The cells are dense and in x-rows,
+// so such a query reads 9 contiguous runs of entries, each entry's box beside it. A splayed mesh
+// whose grid would be too large gets larger cells (more entries per cell, same answers).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "trilevel/trilevel.hpp"
+
+namespace trilevel {
+
+class TriangleGrid {
+public:
+    /// Lists every triangle t of `mesh` with dead[t] == 0 by its box now.
+    TriangleGrid(const Mesh& mesh, const std::vector<std::uint8_t>& dead);
+
+    /// Lists triangle t again by its new box lo..hi (its corners changed); its older entries are
+    /// ignored from now on.
+    void relist(std::uint32_t t, glm::dvec3 lo, glm::dvec3 hi);
+
+    /// Calls visit(t) once for each listed triangle whose box (at its latest listing) may overlap
+    /// the box lo..hi: every one that does, and some that do not (a moved triangle's box is not
+    /// kept, the caller tests its corners).
+    template <class Visit>
+    void for_each_near(glm::dvec3 lo, glm::dvec3 hi, Visit&& visit);
+
+private:
+    double cell_ = 1.0, reach_ = 0.0;  // cell side; the largest triangle extent (a relisted one's too)
+    glm::dvec3 origin_{0.0};
+    glm::ivec3 dims_{1};
+    // Triangles by cell in x-rows: cell c's entries are entry_[start_[c] .. start_[c + 1]), with
+    // their boxes (floats hold the float positions' bounds exactly).
+    std::vector<std::uint32_t> start_, entry_;
+    std::vector<glm::vec3> entry_lo_, entry_hi_;
+    // Relisted triangles: a linked list per cell (moved_head_, moved_next_ over moved_tri_), and
+    // a count per x-row so that rows without any are skipped.
+    std::vector<std::uint32_t> moved_head_, moved_next_, moved_tri_, moved_in_row_;
+    std::vector<std::uint8_t> relisted_;  // per triangle: its first entry is stale
+    std::vector<std::uint32_t> stamp_;    // per triangle: the last query that reported it
+    std::uint32_t query_ = 0;
+
+    glm::ivec3 cell(glm::dvec3 p) const;
+    std::size_t index(int x, int y, int z) const { return (std::size_t(z) * std::size_t(dims_.y) + std::size_t(y)) * std::size_t(dims_.x) + std::size_t(x); }
+};
+
+template <class Visit>
+void TriangleGrid::for_each_near(glm::dvec3 lo, glm::dvec3 hi, Visit&& visit) {
+    if (++query_ == 0) {  // the stamps wrapped around
+        std::fill(stamp_.begin(), stamp_.end(), 0u);
+        query_ = 1;
+    }
+    const glm::vec3 lof(lo), hif(hi);  // a float box holds the float corners' box
+    const glm::ivec3 c0 = cell(lo - reach_), c1 = cell(hi);
+    for (int z = c0.z; z <= c1.z; ++z)
+        for (int y = c0.y; y <= c1.y; ++y) {
+            const std::size_t row = index(0, y, z);
+            for (std::uint32_t i = start_[row + std::size_t(c0.x)], e = start_[row + std::size_t(c1.x) + 1]; i < e; ++i) {
+                if (glm::any(glm::lessThan(entry_hi_[i], lof)) || glm::any(glm::greaterThan(entry_lo_[i], hif))) continue;
+                const std::uint32_t t = entry_[i];
+                if (!relisted_[t]) visit(t);
+            }
+            if (moved_in_row_[std::size_t(z) * std::size_t(dims_.y) + std::size_t(y)] == 0) continue;
+            for (int x = c0.x; x <= c1.x; ++x)
+                for (std::uint32_t k = moved_head_[row + std::size_t(x)]; k != ~0u; k = moved_next_[k]) {
+                    const std::uint32_t t = moved_tri_[k];
+                    if (stamp_[t] == query_) continue;
+                    stamp_[t] = query_;
+                    visit(t);
+                }
+        }
+}
+
+}  // namespace trilevel

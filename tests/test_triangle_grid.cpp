@@ -1,0 +1,94 @@
+// The triangle grid of the crossing check (host/triangle_grid.hpp) against brute force: every
+// triangle whose box overlaps a query box is reported, none twice, also after triangles are
+// relisted with new corners, on meshes of even and of wildly mixed triangle sizes ([mesh]).
+#include <map>
+#include <random>
+
+#include <glm/glm.hpp>
+
+#include "test_support.hpp"
+#include "triangle_grid.hpp"
+
+using namespace trilevel;
+
+namespace {
+
+struct Soup {
+    Mesh mesh;
+    std::vector<std::uint8_t> dead;
+};
+
+// n triangles with corners near random centres; `spread`: the largest extent against the box.
+Soup random_soup(unsigned seed, std::size_t n, float spread) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+    Soup s;
+    for (std::size_t t = 0; t < n; ++t) {
+        const glm::vec3 centre(unit(rng), unit(rng), unit(rng));
+        const float size = t % 97 == 0 ? spread : 0.02f * unit(rng);
+        for (int k = 0; k < 3; ++k) {
+            const glm::vec3 p = centre + size * glm::vec3(unit(rng), unit(rng), unit(rng));
+            s.mesh.positions.insert(s.mesh.positions.end(), {p.x, p.y, p.z});
+            s.mesh.triangles.push_back(std::uint32_t(3 * t + k));
+        }
+        s.dead.push_back(t % 13 == 5);
+    }
+    return s;
+}
+
+void box_of(const Mesh& m, std::uint32_t t, glm::dvec3& lo, glm::dvec3& hi) {
+    for (int k = 0; k < 3; ++k) {
+        const std::uint32_t v = m.triangles[3 * t + k];
+        const glm::dvec3 p(m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]);
+        lo = k ? glm::min(lo, p) : p;
+        hi = k ? glm::max(hi, p) : p;
+    }
+}
+
+// Every query: the reported triangles hold each overlapping live one, once, and no dead one.
+void check_queries(TriangleGrid& grid, const Soup& s, std::mt19937& rng) {
+    std::uniform_real_distribution<double> unit(-0.1, 1.1);
+    for (int q = 0; q < 200; ++q) {
+        glm::dvec3 a(unit(rng), unit(rng), unit(rng)), b = a + 0.05 * glm::dvec3(unit(rng), unit(rng), unit(rng));
+        const glm::dvec3 lo = glm::min(a, b), hi = glm::max(a, b);
+        std::map<std::uint32_t, int> seen;
+        grid.for_each_near(lo, hi, [&](std::uint32_t t) { ++seen[t]; });
+        for (auto [t, n] : seen) {
+            REQUIRE(n == 1);
+            REQUIRE(s.dead[t] == 0);
+        }
+        for (std::uint32_t t = 0; t < s.mesh.triangle_count(); ++t) {
+            if (s.dead[t]) continue;
+            glm::dvec3 tlo, thi;
+            box_of(s.mesh, t, tlo, thi);
+            const bool overlaps = !glm::any(glm::lessThan(thi, lo)) && !glm::any(glm::greaterThan(tlo, hi));
+            if (overlaps) REQUIRE(seen.count(t) == 1);
+        }
+    }
+}
+
+}  // namespace
+
+TEST_CASE("triangle grid finds every triangle overlapping a box, once, also after relisting", "[mesh]") {
+    // 0.02: even sizes; 0.6: a few triangles across half the box, so cells are large; 1e4: a
+    // splayed mesh whose grid at the largest extent is too coarse (one cell), also fine.
+    for (float spread : {0.02f, 0.6f, 1e4f}) {
+        Soup s = random_soup(7u + unsigned(spread), 3000, spread);
+        TriangleGrid grid(s.mesh, s.dead);
+        std::mt19937 rng(11);
+        check_queries(grid, s, rng);
+        // Move corners of some triangles (as a collapse does: onto another vertex's position) and
+        // relist them, some twice.
+        std::uniform_int_distribution<std::uint32_t> pick(0, std::uint32_t(s.mesh.triangle_count() - 1));
+        for (int round = 0; round < 2; ++round)
+            for (int i = 0; i < 300; ++i) {
+                const std::uint32_t t = pick(rng), other = pick(rng);
+                if (s.dead[t]) continue;
+                s.mesh.triangles[3 * t] = s.mesh.triangles[3 * other + 1];
+                glm::dvec3 lo, hi;
+                box_of(s.mesh, t, lo, hi);
+                grid.relist(t, lo, hi);
+            }
+        check_queries(grid, s, rng);
+    }
+}
