@@ -87,39 +87,6 @@ struct Rows {
     std::vector<std::uint32_t> offset, item;
 };
 
-/// Neighbours of each vertex across the triangles' edges, ascending, each once.
-Rows vertex_neighbours(const Mesh& mesh) {
-    const std::size_t nv = mesh.vertex_count();
-    const auto& t = mesh.triangles;
-    Rows g;
-    g.offset.assign(nv + 1, 0);
-    for (std::size_t i = 0; i < t.size(); ++i) g.offset[t[i] + 1] += 2;
-    for (std::size_t v = 0; v < nv; ++v) g.offset[v + 1] += g.offset[v];
-    std::vector<std::uint32_t> fill(g.offset.begin(), g.offset.end() - 1);
-    g.item.resize(g.offset.back());
-    for (std::size_t i = 0; i < t.size(); i += 3)
-        for (int k = 0; k < 3; ++k) {
-            g.item[fill[t[i + k]]++] = t[i + (k + 1) % 3];
-            g.item[fill[t[i + k]]++] = t[i + (k + 2) % 3];
-        }
-    // Sort and drop duplicates per row, then close the gaps (serial: a prefix over rows).
-    std::vector<std::uint32_t> kept(nv);
-    for_vertices(nv, [&](std::size_t v) {
-        auto b = g.item.begin() + g.offset[v], e = g.item.begin() + g.offset[v + 1];
-        std::sort(b, e);
-        kept[v] = std::uint32_t(std::unique(b, e) - b);
-    });
-    std::size_t w = 0;
-    for (std::size_t v = 0; v < nv; ++v) {
-        const std::uint32_t from = g.offset[v];
-        g.offset[v] = std::uint32_t(w);
-        for (std::uint32_t k = 0; k < kept[v]; ++k) g.item[w++] = g.item[from + k];
-    }
-    g.offset[nv] = std::uint32_t(w);
-    g.item.resize(w);
-    return g;
-}
-
 /// Triangles around each vertex, ascending.
 Rows vertex_triangles(const Mesh& mesh) {
     const std::size_t nv = mesh.vertex_count();
@@ -131,6 +98,31 @@ Rows vertex_triangles(const Mesh& mesh) {
     std::vector<std::uint32_t> fill(g.offset.begin(), g.offset.end() - 1);
     g.item.resize(t.size());
     for (std::size_t i = 0; i < t.size(); ++i) g.item[fill[t[i]]++] = std::uint32_t(i / 3);
+    return g;
+}
+
+/// Neighbours of each vertex across the triangles' edges, ascending, each once: the other corners
+/// of its triangles (`tri`: vertex_triangles), sorted row by row in parallel.
+Rows vertex_neighbours(const Mesh& mesh, const Rows& tri) {
+    const std::size_t nv = mesh.vertex_count();
+    const std::uint32_t* t = mesh.triangles.data();
+    std::vector<std::uint32_t> all(2 * tri.item.size()), kept(nv);  // row v at 2 tri.offset[v]
+    for_vertices(nv, [&](std::size_t v) {
+        std::uint32_t* out = all.data() + 2 * std::size_t(tri.offset[v]);
+        std::uint32_t n = 0;
+        for (std::uint32_t k = tri.offset[v]; k < tri.offset[v + 1]; ++k)
+            for (int c = 0; c < 3; ++c)
+                if (const std::uint32_t u = t[3 * std::size_t(tri.item[k]) + c]; u != v) out[n++] = u;
+        std::sort(out, out + n);
+        kept[v] = std::uint32_t(std::unique(out, out + n) - out);
+    });
+    Rows g;
+    g.offset.assign(nv + 1, 0);
+    for (std::size_t v = 0; v < nv; ++v) g.offset[v + 1] = g.offset[v] + kept[v];
+    g.item.resize(g.offset[nv]);
+    for_vertices(nv, [&](std::size_t v) {
+        std::copy_n(all.begin() + 2 * std::ptrdiff_t(tri.offset[v]), kept[v], g.item.begin() + g.offset[v]);
+    });
     return g;
 }
 
@@ -216,7 +208,7 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
     const std::size_t nv = mesh.vertex_count(), nt = mesh.triangle_count();
     if (weights.size() != nv) throw Error("smoothing: " + std::to_string(weights.size()) + " weights for " + std::to_string(nv) + " vertices");
     if (nv == 0 || settings.iterations <= 0) return report;
-    const Rows nbr = vertex_neighbours(mesh), tri = vertex_triangles(mesh);
+    const Rows tri = vertex_triangles(mesh), nbr = vertex_neighbours(mesh, tri);
     const MeshComponents comp = mesh_components(mesh);
     const std::vector<double> volume0 = component_volumes(mesh, comp);
     for (double v : volume0) report.volume_before += v;
@@ -406,12 +398,14 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
         // products) / 6, whose direction n_v is: the slope is the sum of their lengths / 6.
         // A step is bounded by a quarter of the component's volume over its area (a twelfth of a
         // ball's radius), so that a tiny component shrunk by the steps is regrown gradually.
+        std::vector<double> term(nt);
         for (int pass = 0; pass < 8; ++pass) {
             std::vector<double> volume(comp.count, 0.0), slope(comp.count, 0.0);
-            for (std::size_t t = 0; t < nt; ++t) {
+            tbb::parallel_for(std::size_t(0), nt, [&](std::size_t t) {
                 const std::uint32_t* c = corners + 3 * t;
-                volume[comp.of_vertex[c[0]]] += glm::dot(p[c[0]], face_cross(p, c)) / 6.0;
-            }
+                term[t] = glm::dot(p[c[0]], face_cross(p, c)) / 6.0;
+            });
+            for (std::size_t t = 0; t < nt; ++t) volume[comp.of_vertex[corners[3 * t]]] += term[t];  // in triangle order
             bool converged = true;  // to rounding: further steps would not change the result
             for (std::size_t k = 0; k < comp.count; ++k)
                 if (std::fabs(volume0[k]) >= settings.min_volume && std::fabs(volume0[k] - volume[k]) > 1e-12 * std::fabs(volume0[k]))

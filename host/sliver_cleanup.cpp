@@ -12,7 +12,7 @@
 
 namespace trilevel {
 
-std::size_t collapse_slivers(Mesh& mesh) {
+std::size_t collapse_slivers(Mesh& mesh, std::vector<std::uint32_t>* kept) {
     // The short edges, as (lower, higher) vertex pairs, in the order of their first triangle.
     std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;
     const auto& t = mesh.triangles;
@@ -27,7 +27,16 @@ std::size_t collapse_slivers(Mesh& mesh) {
         const std::uint32_t a = t[i + s], b = t[i + (s + 1) % 3];
         edges.emplace_back(std::min(a, b), std::max(a, b));
     }
-    if (edges.empty()) return 0;
+    auto keep_all = [&] {
+        if (kept) {
+            kept->resize(mesh.vertex_count());
+            for (std::uint32_t v = 0; v < kept->size(); ++v) (*kept)[v] = v;
+        }
+    };
+    if (edges.empty()) {
+        keep_all();
+        return 0;
+    }
     std::vector<std::uint32_t> vertices;
     vertices.reserve(2 * edges.size());
     for (auto [a, b] : edges) vertices.insert(vertices.end(), {a, b});
@@ -35,7 +44,12 @@ std::size_t collapse_slivers(Mesh& mesh) {
     std::size_t collapsed = 0;
     for (auto [a, b] : edges)  // an edge listed twice, or gone with an earlier collapse, is refused
         if (!c.dead(a) && !c.dead(b) && c.collapse(b, a)) ++collapsed;
-    if (collapsed) c.compact();
+    if (collapsed) {
+        std::vector<std::uint32_t> left = c.compact();
+        if (kept) *kept = std::move(left);
+    } else {
+        keep_all();
+    }
     return collapsed;
 }
 

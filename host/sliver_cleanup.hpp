@@ -7,6 +7,8 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
+#include <vector>
 
 #include "trilevel/trilevel.hpp"
 
@@ -20,7 +22,9 @@ constexpr double kSliverEdgeRatio = 0.15;
 /// kSliverEdgeRatio times its longest, the higher-numbered end into the lower (which keeps its
 /// position: the move is the short edge's length), where that keeps the mesh a closed oriented
 /// 2-manifold and turns no triangle over. Removes the dead vertices and triangles (order of the
-/// rest kept) and returns the number of edges collapsed. Serial and deterministic.
-std::size_t collapse_slivers(Mesh& mesh);
+/// rest kept) and returns the number of edges collapsed. Serial and deterministic. `kept`, where
+/// given, receives the old index of each vertex left, ascending (no vertex moves: a vertex's data
+/// computed before carries over).
+std::size_t collapse_slivers(Mesh& mesh, std::vector<std::uint32_t>* kept = nullptr);
 
 }  // namespace trilevel

@@ -15,6 +15,7 @@
 #include <tbb/global_control.h>
 #include <tbb/parallel_reduce.h>
 #include <tbb/task_arena.h>
+#include <tbb/task_group.h>
 
 #include "band_closure.hpp"
 #include "device_input.hpp"
@@ -280,17 +281,41 @@ private:
 /// released after the weights unless `keep_grid` (the vertex stages read it later).
 void postprocess(Mesh& mesh, FrameGrid& grid, bool keep_grid, const Params& p, Stats& s) {
     if (!p.smooth && !p.sliver_cleanup) return;
+    std::vector<float> weights;
     {
+        // With smoothing, the weights are computed beside the cleanup (serial) on the other host
+        // threads: they read only the vertex positions, which the cleanup never moves (a collapse
+        // keeps one end where it is), so the weights of the vertices left carry over. The stage's
+        // time is then that of both.
         StageScope stage(s, "sliver_cleanup");
-        s.sliver_edges_collapsed = collapse_slivers(mesh);
+        if (!p.smooth) {
+            s.sliver_edges_collapsed = collapse_slivers(mesh);
+        } else {
+            Mesh before;
+            before.positions = mesh.positions;
+            std::vector<float> all;
+            tbb::task_group beside;
+            beside.run([&] {
+                all = smoothing_weights(before, grid.get(), p.particle_radius, p.kernel_radius * p.particle_radius);
+                if (!keep_grid) grid.release();  // freed before the smoothing's own arrays
+            });
+            std::vector<std::uint32_t> kept;
+            try {
+                s.sliver_edges_collapsed = collapse_slivers(mesh, &kept);
+            } catch (...) {
+                beside.wait();
+                throw;
+            }
+            beside.wait();
+            weights.resize(kept.size());
+            for (std::size_t v = 0; v < kept.size(); ++v) weights[v] = all[kept[v]];
+        }
     }
     if (p.smooth) {
         StageScope stage(s, "smoothing");
         SmoothingSettings settings;
         settings.iterations = p.smooth_iterations > 0 ? p.smooth_iterations : kDefaultSmoothIterations;
         settings.min_volume = smooth_min_volume(p.particle_radius);
-        const std::vector<float> weights = smoothing_weights(mesh, grid.get(), p.particle_radius, p.kernel_radius * p.particle_radius);
-        if (!keep_grid) grid.release();  // freed before the smoothing's own arrays
         s.smoothing_reverted_moves = smooth_mesh(mesh, weights, settings).reverted_moves;
     }
     count_mesh(mesh, s);
