@@ -102,7 +102,9 @@ Rows vertex_triangles(const Mesh& mesh) {
 }
 
 /// Neighbours of each vertex across the triangles' edges, ascending, each once: the other corners
-/// of its triangles (`tri`: vertex_triangles), sorted row by row in parallel.
+/// of its triangles (`tri`: vertex_triangles), row by row in parallel. Around a vertex of a closed
+/// oriented mesh the corners after it are its neighbours, each once, and those before it the same
+/// again: they are only looked up, and the short row sorted.
 Rows vertex_neighbours(const Mesh& mesh, const Rows& tri) {
     const std::size_t nv = mesh.vertex_count();
     const std::uint32_t* t = mesh.triangles.data();
@@ -110,11 +112,17 @@ Rows vertex_neighbours(const Mesh& mesh, const Rows& tri) {
     for_vertices(nv, [&](std::size_t v) {
         std::uint32_t* out = all.data() + 2 * std::size_t(tri.offset[v]);
         std::uint32_t n = 0;
-        for (std::uint32_t k = tri.offset[v]; k < tri.offset[v + 1]; ++k)
-            for (int c = 0; c < 3; ++c)
-                if (const std::uint32_t u = t[3 * std::size_t(tri.item[k]) + c]; u != v) out[n++] = u;
+        auto add = [&](std::uint32_t u) {
+            if (u != v && std::find(out, out + n, u) == out + n) out[n++] = u;
+        };
+        for (int after : {1, 2})
+            for (std::uint32_t k = tri.offset[v]; k < tri.offset[v + 1]; ++k) {
+                const std::uint32_t* c = t + 3 * std::size_t(tri.item[k]);
+                const int at = c[0] == v ? 0 : c[1] == v ? 1 : 2;
+                add(c[(at + after) % 3]);
+            }
         std::sort(out, out + n);
-        kept[v] = std::uint32_t(std::unique(out, out + n) - out);
+        kept[v] = n;
     });
     Rows g;
     g.offset.assign(nv + 1, 0);
@@ -323,38 +331,31 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
     //   TVCG 2007), weighted as in the Laplacian steps.
     vertex_normals();
     // The averaged fields are floats: their rounding (2^-24 of a normal, of a shrink of a tenth
-    // of r) lies far under what they steer, and the rounds read half the memory.
-    std::vector<float> shrink(nv), shrink_next(nv);
+    // of r) lies far under what they steer. Each vertex's averaged normal (xyz) and shrink (w)
+    // share one vec4, so that a round reads one 16-byte value per neighbour.
+    std::vector<glm::vec4> field(nv), field_next(nv);
     for_vertices(nv, [&](std::size_t v) {
         const glm::dvec3 o(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]);
-        shrink[v] = float(glm::dot(p[v] - o, normal[v]));
+        field[v] = glm::vec4(glm::vec3(normal[v]), float(glm::dot(p[v] - o, normal[v])));
     });
     const bool follow_normals = settings.normal_passes > 0 && settings.update_passes > 0;
-    std::vector<glm::vec3> filtered, filtered_next;
-    if (follow_normals) {
-        filtered.assign(normal.begin(), normal.end());
-        filtered_next.resize(nv);
-    }
     for (int pass = 0; pass < std::max(settings.shrink_passes, follow_normals ? settings.normal_passes : 0); ++pass) {
         const bool average_shrink = pass < settings.shrink_passes, average_normals = follow_normals && pass < settings.normal_passes;
         for_vertices(nv, [&](std::size_t v) {
-            float sum = shrink[v];
-            glm::vec3 n = average_normals ? filtered[v] : glm::vec3(0.0f);
-            for (std::uint32_t k = nbr.offset[v]; k < nbr.offset[v + 1]; ++k) {
-                if (average_shrink) sum += shrink[nbr.item[k]];
-                if (average_normals) n += filtered[nbr.item[k]];
-            }
-            if (average_shrink) shrink_next[v] = sum / float(nbr.offset[v + 1] - nbr.offset[v] + 1);
+            glm::vec4 sum = field[v], out = field[v];
+            for (std::uint32_t k = nbr.offset[v]; k < nbr.offset[v + 1]; ++k) sum += field[nbr.item[k]];
+            if (average_shrink) out.w = sum.w / float(nbr.offset[v + 1] - nbr.offset[v] + 1);
             if (average_normals) {
+                const glm::vec3 n(sum);
                 const float l = glm::length(n);
-                filtered_next[v] = l > 0 ? n / l : filtered[v];
+                if (l > 0) out = glm::vec4(n / l, out.w);
             }
+            field_next[v] = out;
         });
-        if (average_shrink) std::swap(shrink, shrink_next);
-        if (average_normals) std::swap(filtered, filtered_next);
+        std::swap(field, field_next);
     }
     if (settings.shrink_passes > 0) {
-        for_vertices(nv, [&](std::size_t v) { q[v] = p[v] - (double(shrink[v]) * double(w[v])) * normal[v]; });
+        for_vertices(nv, [&](std::size_t v) { q[v] = p[v] - (double(field[v].w) * double(w[v])) * normal[v]; });
         accept();
     }
     if (follow_normals) {
@@ -363,7 +364,7 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
         std::vector<double> offset(nt);
         tbb::parallel_for(std::size_t(0), nt, [&](std::size_t t) {
             const std::uint32_t* c = corners + 3 * t;
-            const glm::vec3 sum = filtered[c[0]] + filtered[c[1]] + filtered[c[2]];
+            const glm::vec3 sum = glm::vec3(field[c[0]]) + glm::vec3(field[c[1]]) + glm::vec3(field[c[2]]);
             const float l = glm::length(sum);
             face_normal[t] = l > 0 ? sum / l : glm::vec3(0.0f);
         });
@@ -403,26 +404,30 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
         // products) / 6, whose direction n_v is: the slope is the sum of their lengths / 6.
         // A step is bounded by a quarter of the component's volume over its area (a twelfth of a
         // ball's radius), so that a tiny component shrunk by the steps is regrown gradually.
-        std::vector<double> term(nt);
+        // One sweep over the vertices per step takes the volume terms (each triangle's at its first
+        // corner, summed per component in triangle order) and the vertex normals for the move.
+        std::vector<double> term(nt), gradient(nv);
         for (int pass = 0; pass < 8; ++pass) {
             std::vector<double> volume(comp.count, 0.0), slope(comp.count, 0.0);
-            tbb::parallel_for(std::size_t(0), nt, [&](std::size_t t) {
-                const std::uint32_t* c = corners + 3 * t;
-                term[t] = glm::dot(p[c[0]], face_cross(p, c)) / 6.0;
-            });
-            for (std::size_t t = 0; t < nt; ++t) volume[comp.of_vertex[corners[3 * t]]] += term[t];  // in triangle order
-            bool converged = true;  // to rounding: further steps would not change the result
-            for (std::size_t k = 0; k < comp.count; ++k)
-                if (std::fabs(volume0[k]) >= settings.min_volume && std::fabs(volume0[k] - volume[k]) > 1e-12 * std::fabs(volume0[k]))
-                    converged = false;
-            if (converged) break;
-            std::vector<double> gradient(nv);
             for_vertices(nv, [&](std::size_t v) {
                 glm::dvec3 n(0.0);
-                for (std::uint32_t k = tri.offset[v]; k < tri.offset[v + 1]; ++k) n += face_cross(p, corners + 3 * tri.item[k]);
+                for (std::uint32_t k = tri.offset[v]; k < tri.offset[v + 1]; ++k) {
+                    const std::uint32_t* c = corners + 3 * std::size_t(tri.item[k]);
+                    const glm::dvec3 cross = face_cross(p, c);
+                    if (c[0] == v) term[tri.item[k]] = glm::dot(p[v], cross) / 6.0;
+                    n += cross;
+                }
                 gradient[v] = glm::length(n) / 6.0;
                 normal[v] = gradient[v] > 0 ? n / (6.0 * gradient[v]) : glm::dvec3(0.0);
             });
+            for (std::size_t t = 0; t < nt; ++t) volume[comp.of_vertex[corners[3 * t]]] += term[t];
+            // Converged to 1e-9 of each volume: under the rounding of the float positions written
+            // at the end (about 1e-7 of a component's volume).
+            bool converged = true;
+            for (std::size_t k = 0; k < comp.count; ++k)
+                if (std::fabs(volume0[k]) >= settings.min_volume && std::fabs(volume0[k] - volume[k]) > 1e-9 * std::fabs(volume0[k]))
+                    converged = false;
+            if (converged) break;
             for (std::size_t v = 0; v < nv; ++v) slope[comp.of_vertex[v]] += gradient[v];
             // volume[] is taken about the origin, volume0 about each component's first vertex:
             // equal for a closed component up to rounding.

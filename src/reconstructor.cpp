@@ -617,7 +617,7 @@ Mesh Reconstructor::Impl::run_stages(const float* xyz, std::size_t n, const Para
         }
     }
     count_mesh(mesh, s);
-    s.closed = is_closed_and_oriented(mesh);
+    if (!p.smooth && !p.sliver_cleanup) s.closed = is_closed_and_oriented(mesh);  // else checked after them
     if (keep_levels) remember_levels(cells, g, p, s);
     for (auto& [name, ms] : rt.take_kernel_times()) s.kernel_ms.emplace_back(name, ms);
     rt.set_stage("");
