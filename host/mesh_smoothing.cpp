@@ -171,7 +171,8 @@ std::vector<float> smoothing_weights(const Mesh& mesh, const ParticleGrid& grid,
         const glm::vec3 pf(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]);
         const glm::dvec3 p(pf);
         const glm::ivec3 c = order.of_vertex(p);
-        // The terms (1 - d^2/R^2)^3 >= 0 summed in the grid's order. Any order's rounded sum lies
+        // The terms (1 - d^2/R^2)^3 >= 0 summed in the grid's order (rows nearest first: the
+        // partial sum reaches `full` early). Any order's rounded sum lies
         // within (n - 1) 2^-53 (1 + small) of the exact sum, so SumOrder's sum lies within
         // n 2^-50 sum of this one. Where the ramp is the same at both ends of that interval (the
         // bulk's surface at 1 and splashes at 0: all but a few vertices of a large frame), it is

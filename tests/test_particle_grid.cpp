@@ -54,6 +54,7 @@ std::vector<std::uint32_t> within(const ParticleGrid& g, glm::vec3 p, double rad
 }  // namespace
 
 TEST_CASE("the particle grid finds exactly the particles within any radius, in (cell, index) order, in both layouts", "[particle_grid]") {
+    // (A search that may stop visits them rows nearest first: checked below.)
     const float cell = 0.1f;
     const std::vector<float> xyz = random_particles(4000, 1.0f, glm::vec3(-0.3f, 0.2f, 5.0f), 7);
     const std::size_t n = xyz.size() / 3;
@@ -79,16 +80,32 @@ TEST_CASE("the particle grid finds exactly the particles within any radius, in (
             std::sort(got.begin(), got.end());
             REQUIRE(got == brute_force(xyz, p, radius));
             found += got.size();
-            // A callback returning true stops the search: the visits before it are the full search's.
-            std::vector<std::uint32_t> all, prefix;
+            // A callback returning bool may stop the search: it visits the same candidates, rows
+            // nearest first (z rows outwards from p's, then y rows likewise), and a stopped search's
+            // visits are the first of those.
+            std::vector<std::uint32_t> all, nearest_first, prefix;
             dense.for_each_candidate(p, radius, [&](std::uint32_t j, glm::vec3) { all.push_back(j); });
-            const std::size_t stop = all.size() / 2;
+            for (const ParticleGrid* g : {&dense, &sorted}) {
+                nearest_first.clear();
+                g->for_each_candidate(p, radius, [&](std::uint32_t j, glm::vec3) {
+                    nearest_first.push_back(j);
+                    return false;
+                });
+                std::vector<std::uint32_t> a = all, b = nearest_first;
+                std::sort(a.begin(), a.end());
+                std::sort(b.begin(), b.end());
+                REQUIRE(a == b);
+                const int zp = int(std::floor((double(p.z) - double(lo.z)) / double(cell)));  // as the grid takes it
+                for (std::size_t i = 1; i < nearest_first.size(); ++i)
+                    REQUIRE(std::abs(std::get<0>(cell_of(nearest_first[i])) - zp) >= std::abs(std::get<0>(cell_of(nearest_first[i - 1])) - zp));
+            }
+            const std::size_t stop = nearest_first.size() / 2;
             dense.for_each_candidate(p, radius, [&](std::uint32_t j, glm::vec3) {
                 prefix.push_back(j);
                 return prefix.size() > stop;
             });
-            REQUIRE(prefix.size() == std::min(stop + 1, all.size()));
-            REQUIRE(std::equal(prefix.begin(), prefix.end(), all.begin()));
+            REQUIRE(prefix.size() == std::min(stop + 1, nearest_first.size()));
+            REQUIRE(std::equal(prefix.begin(), prefix.end(), nearest_first.begin()));
         }
     }
     CHECK(found > 10000);  // the queries do reach particles

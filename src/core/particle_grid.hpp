@@ -3,7 +3,8 @@
 // per frame (src/reconstructor.cpp). Each stage filters the candidates with its own distance test.
 //
 // Visit order: ascending (cell z, cell y, cell x, particle index), the same for every query and
-// thread count, so sums over the neighbours are deterministic. It is also the order of the plain
+// thread count, so sums over the neighbours are deterministic (a search that may stop early
+// visits the rows nearest first instead, for_each_candidate). It is also the order of the plain
 // C++ reference's hash grid (src/reference/) for the same cell edge, which the vertex stages used
 // before: their outputs keep their bits.
 #pragma once
@@ -34,7 +35,9 @@ public:
     /// test). Each row of cells along x is cut to the ball's extent at its distance from p in y
     /// and z. Cell bounds are widened by the float rounding of the particles' cell coordinates, so
     /// no particle within `radius` is missed at any distance from the origin. Order: see above.
-    /// A callback that returns bool stops the search by returning true.
+    /// A callback that returns bool stops the search by returning true; such a search visits the
+    /// rows nearest first (z rows outwards from p's, in each the y rows likewise, the particles of
+    /// a row in (x, index) order), so that a partial sum near p is reached early.
     template <class F>
     void for_each_candidate(glm::vec3 p, double radius, F&& f) const {
         if (ids_.empty()) return;
@@ -49,23 +52,39 @@ public:
             if (!window(t[a], span, slack[a], dims_[a], lo[a], hi[a])) return;  // also for NaN p
         }
         const double span2 = span * span * (1.0 + 0x1p-30);  // rounds up: never cuts a particle off
-        for (int z = lo[2]; z <= hi[2]; ++z) {
+        constexpr bool stops = std::is_same_v<std::invoke_result_t<F&, std::uint32_t, glm::vec3>, bool>;
+        // Rows lo..hi in visit order: ascending, or outwards from the one holding t (stopping).
+        auto rows = [&](double t, int lo, int hi, auto&& visit) {
+            if constexpr (!stops) {
+                for (int c = lo; c <= hi; ++c)
+                    if (visit(c)) return true;
+            } else {
+                const int centre = int(std::clamp(std::floor(t), double(lo), double(hi)));
+                for (int d = 0; centre - d >= lo || centre + d <= hi; ++d) {
+                    if (centre - d >= lo && visit(centre - d)) return true;
+                    if (d > 0 && centre + d <= hi && visit(centre + d)) return true;
+                }
+            }
+            return false;
+        };
+        rows(t[2], lo[2], hi[2], [&](int z) {
             const double gz = gap(t[2], z, slack[2]), rz2 = span2 - gz * gz;
-            if (rz2 < 0.0) continue;
-            for (int y = lo[1]; y <= hi[1]; ++y) {
+            if (rz2 < 0.0) return false;
+            return rows(t[1], lo[1], hi[1], [&](int y) {
                 const double gy = gap(t[1], y, slack[1]), ry2 = rz2 - gy * gy;
                 int x0, x1;
-                if (ry2 < 0.0 || !window(t[0], std::sqrt(ry2) * (1.0 + 0x1p-30), slack[0], dims_[0], x0, x1)) continue;
+                if (ry2 < 0.0 || !window(t[0], std::sqrt(ry2) * (1.0 + 0x1p-30), slack[0], dims_[0], x0, x1)) return false;
                 const auto [b, e] = row(z, y, x0, x1);
                 for (std::uint32_t s = b; s < e; ++s) {
-                    if constexpr (std::is_same_v<std::invoke_result_t<F&, std::uint32_t, glm::vec3>, bool>) {
-                        if (f(ids_[s], pos_[s])) return;
+                    if constexpr (stops) {
+                        if (f(ids_[s], pos_[s])) return true;
                     } else {
                         f(ids_[s], pos_[s]);
                     }
                 }
-            }
-        }
+                return false;
+            });
+        });
     }
 
     float cell() const { return cell_; }
