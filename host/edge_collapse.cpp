@@ -49,6 +49,12 @@ EdgeCollapser::EdgeCollapser(Mesh& mesh, const std::vector<std::uint32_t>& verti
             list_[v] = std::int32_t(tris_.size());
             tris_.emplace_back();
         }
+    // Counted first, so that each list is allocated once (with room for the triangles a few
+    // collapses bring).
+    std::vector<std::uint32_t> count(tris_.size(), 0);
+    for (std::uint32_t c : mesh.triangles)
+        if (const std::int32_t l = list_[c]; l >= 0) ++count[std::size_t(l)];
+    for (std::size_t l = 0; l < tris_.size(); ++l) tris_[l].reserve(count[l] + 4);
     for (std::uint32_t t = 0; t < mesh.triangle_count(); ++t)
         for (int k = 0; k < 3; ++k)
             if (const std::int32_t l = list_[mesh.triangles[3 * std::size_t(t) + k]]; l >= 0) tris_[l].push_back(t);

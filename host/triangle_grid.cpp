@@ -4,6 +4,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
 namespace trilevel {
 
 TriangleGrid::TriangleGrid(const Mesh& mesh, const std::vector<std::uint8_t>& dead) {
@@ -20,18 +24,27 @@ TriangleGrid::TriangleGrid(const Mesh& mesh, const std::vector<std::uint8_t>& de
         lo = glm::min(p0, glm::min(p1, p2));
         hi = glm::max(p0, glm::max(p1, p2));
     };
-    glm::vec3 low(0.0f), high(0.0f), lo, hi;
-    float extent = 0.0f;
-    bool first = true;
-    for (std::uint32_t t = 0; t < nt; ++t) {
-        if (dead[t]) continue;
-        box(t, lo, hi);
-        const glm::vec3 d = hi - lo;
-        low = first ? lo : glm::min(low, lo);
-        high = first ? hi : glm::max(high, hi);
-        extent = std::max(extent, std::max(d.x, std::max(d.y, d.z)));
-        first = false;
-    }
+    struct Bounds {
+        glm::vec3 low{INFINITY}, high{-INFINITY};
+        float extent = 0.0f;
+    };
+    const Bounds all = tbb::parallel_reduce(
+        tbb::blocked_range<std::uint32_t>(0, nt, 8192), Bounds{},
+        [&](const auto& range, Bounds b) {
+            glm::vec3 lo, hi;
+            for (std::uint32_t t = range.begin(); t != range.end(); ++t) {
+                if (dead[t]) continue;
+                box(t, lo, hi);
+                const glm::vec3 d = hi - lo;
+                b.low = glm::min(b.low, lo);
+                b.high = glm::max(b.high, hi);
+                b.extent = std::max(b.extent, std::max(d.x, std::max(d.y, d.z)));
+            }
+            return b;
+        },
+        [](const Bounds& a, const Bounds& b) { return Bounds{glm::min(a.low, b.low), glm::max(a.high, b.high), std::max(a.extent, b.extent)}; });
+    const glm::vec3 low = all.high.x >= all.low.x ? all.low : glm::vec3(0.0f), high = all.high.x >= all.low.x ? all.high : glm::vec3(0.0f);
+    const float extent = all.extent;
     // Cells of the largest extent, grown by factors of 1.5 while the grid over the mesh's box
     // would have more than max(4 triangles, 2^20) cells.
     origin_ = glm::dvec3(low);
@@ -46,14 +59,18 @@ TriangleGrid::TriangleGrid(const Mesh& mesh, const std::vector<std::uint8_t>& de
 
     // Counting sort by cell; the triangles' order within a cell is theirs.
     std::vector<std::uint32_t> of(nt);
+    tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, nt, 8192), [&](const auto& range) {
+        glm::vec3 lo, hi;
+        for (std::uint32_t t = range.begin(); t != range.end(); ++t) {
+            if (dead[t]) continue;
+            box(t, lo, hi);
+            const glm::ivec3 k = cell(lo);
+            of[t] = std::uint32_t(index(k.x, k.y, k.z));
+        }
+    });
     start_.assign(count + 1, 0);
-    for (std::uint32_t t = 0; t < nt; ++t) {
-        if (dead[t]) continue;
-        box(t, lo, hi);
-        const glm::ivec3 k = cell(lo);
-        of[t] = std::uint32_t(index(k.x, k.y, k.z));
-        ++start_[of[t] + 1];
-    }
+    for (std::uint32_t t = 0; t < nt; ++t)
+        if (!dead[t]) ++start_[of[t] + 1];
     for (std::size_t c = 0; c < count; ++c) start_[c + 1] += start_[c];
     entry_.resize(start_[count]);
     entry_lo_.resize(entry_.size());
