@@ -238,8 +238,11 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
     // depend on any order (p itself turns nothing over, so this ends).
     std::vector<std::uint8_t> mark(std::max(nv, nt), 0);
     auto turned = [&](std::size_t t) { return glm::dot(face_cross(q, corners + 3 * t), n0[t]) <= 0.0 && n0[t] != glm::dvec3(0.0); };
+    const std::uint8_t* moving = nullptr;  // where set: only components k with moving[k] moved
     auto guard = [&] {
-        tbb::parallel_for(std::size_t(0), nt, [&](std::size_t t) { bad[t] = turned(t); });
+        tbb::parallel_for(std::size_t(0), nt, [&](std::size_t t) {
+            bad[t] = (!moving || moving[comp.of_vertex[corners[3 * t]]]) && turned(t);
+        });
         std::vector<std::uint32_t> bad_list, undo, check;
         for (std::size_t t = 0; t < nt; ++t)
             if (bad[t]) bad_list.push_back(std::uint32_t(t));
@@ -406,11 +409,18 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
         // A step is bounded by a quarter of the component's volume over its area (a twelfth of a
         // ball's radius), so that a tiny component shrunk by the steps is regrown gradually.
         // One sweep over the vertices per step takes the volume terms (each triangle's at its first
-        // corner, summed per component in triangle order) and the vertex normals for the move.
+        // corner, summed per component in triangle order) and the vertex normals for the move. A
+        // component stops once its volume is within 1e-9 of the one before smoothing (under the
+        // rounding of the float positions written at the end, about 1e-7): later steps sweep only
+        // the components still moving, a cavity shrunk by the Laplacian steps, say.
         std::vector<double> term(nt), gradient(nv);
+        std::vector<std::uint8_t> active(comp.count);
+        for (std::size_t k = 0; k < comp.count; ++k) active[k] = std::fabs(volume0[k]) >= settings.min_volume;
+        moving = active.data();
         for (int pass = 0; pass < 8; ++pass) {
             std::vector<double> volume(comp.count, 0.0), slope(comp.count, 0.0);
             for_vertices(nv, [&](std::size_t v) {
+                if (!active[comp.of_vertex[v]]) return;
                 glm::dvec3 n(0.0);
                 for (std::uint32_t k = tri.offset[v]; k < tri.offset[v + 1]; ++k) {
                     const std::uint32_t* c = corners + 3 * std::size_t(tri.item[k]);
@@ -421,20 +431,21 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
                 gradient[v] = glm::length(n) / 6.0;
                 normal[v] = gradient[v] > 0 ? n / (6.0 * gradient[v]) : glm::dvec3(0.0);
             });
-            for (std::size_t t = 0; t < nt; ++t) volume[comp.of_vertex[corners[3 * t]]] += term[t];
-            // Converged to 1e-9 of each volume: under the rounding of the float positions written
-            // at the end (about 1e-7 of a component's volume).
-            bool converged = true;
-            for (std::size_t k = 0; k < comp.count; ++k)
-                if (std::fabs(volume0[k]) >= settings.min_volume && std::fabs(volume0[k] - volume[k]) > 1e-9 * std::fabs(volume0[k]))
-                    converged = false;
-            if (converged) break;
-            for (std::size_t v = 0; v < nv; ++v) slope[comp.of_vertex[v]] += gradient[v];
+            for (std::size_t t = 0; t < nt; ++t)
+                if (const std::uint32_t k = comp.of_vertex[corners[3 * t]]; active[k]) volume[k] += term[t];
+            bool any = false;
+            for (std::size_t k = 0; k < comp.count; ++k) {
+                if (active[k] && std::fabs(volume0[k] - volume[k]) <= 1e-9 * std::fabs(volume0[k])) active[k] = 0;
+                any = any || active[k];
+            }
+            if (!any) break;
+            for (std::size_t v = 0; v < nv; ++v)
+                if (const std::uint32_t k = comp.of_vertex[v]; active[k]) slope[k] += gradient[v];
             // volume[] is taken about the origin, volume0 about each component's first vertex:
             // equal for a closed component up to rounding.
             for_vertices(nv, [&](std::size_t v) {
                 const std::uint32_t k = comp.of_vertex[v];
-                if (std::fabs(volume0[k]) < settings.min_volume) {
+                if (!active[k]) {
                     q[v] = p[v];
                     return;
                 }
@@ -444,6 +455,7 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
             });
             accept();
         }
+        moving = nullptr;
     }
     for (std::size_t v = 0; v < nv; ++v)
         for (int a = 0; a < 3; ++a) mesh.positions[3 * v + a] = float(p[v][a]);
