@@ -11,10 +11,12 @@ namespace {
 glm::dvec3 corner_min(const glm::dvec3 (&p)[3]) { return glm::min(p[0], glm::min(p[1], p[2])); }
 glm::dvec3 corner_max(const glm::dvec3 (&p)[3]) { return glm::max(p[0], glm::max(p[1], p[2])); }
 
-int orient(glm::dvec3 a, glm::dvec3 b, glm::dvec3 c, glm::dvec3 d) {
-    const double o = glm::dot(glm::cross(b - a, c - a), d - a);
-    return (o > 0.0) - (o < 0.0);
-}
+int sign(double o) { return (o > 0.0) - (o < 0.0); }
+
+/// Twice the area vector of triangle t: its plane's normal, taken once per triangle.
+glm::dvec3 normal_of(const glm::dvec3 (&t)[3]) { return glm::cross(t[1] - t[0], t[2] - t[0]); }
+
+int orient(glm::dvec3 a, glm::dvec3 b, glm::dvec3 c, glm::dvec3 d) { return sign(glm::dot(glm::cross(b - a, c - a), d - a)); }
 
 // Does segment pq, whose ends lie on sides sp and sq of triangle t's plane, pass through the
 // inside of t (p and q strictly on either side, the line strictly inside all three edges)?
@@ -25,13 +27,14 @@ bool segment_crosses(glm::dvec3 p, glm::dvec3 q, int sp, int sq, const glm::dvec
     return s0 != 0 && s0 == s1 && s1 == s2;
 }
 
-// Do two triangles cross (an edge of one through the inside of the other)? Each corner's side of
-// the other's plane is taken once; most pairs end there, every corner on one side.
-bool triangles_cross(const glm::dvec3 (&a)[3], const glm::dvec3 (&b)[3]) {
+// Do two triangles cross (an edge of one through the inside of the other)? na, nb: their
+// normal_of(). Each corner's side of the other's plane is taken once; most pairs end there,
+// every corner on one side.
+bool triangles_cross(const glm::dvec3 (&a)[3], glm::dvec3 na, const glm::dvec3 (&b)[3], glm::dvec3 nb) {
     int sa[3], sb[3];
     for (int k = 0; k < 3; ++k) {
-        sa[k] = orient(b[0], b[1], b[2], a[k]);
-        sb[k] = orient(a[0], a[1], a[2], b[k]);
+        sa[k] = sign(glm::dot(nb, a[k] - b[0]));
+        sb[k] = sign(glm::dot(na, b[k] - a[0]));
     }
     for (int k = 0; k < 3; ++k) {
         const int l = (k + 1) % 3;
@@ -92,6 +95,8 @@ bool EdgeCollapser::makes_crossing(std::uint32_t v, std::uint32_t a, const std::
         }
         m.lo = corner_min(m.q);
         m.hi = corner_max(m.q);
+        m.np = normal_of(m.p);
+        m.nq = normal_of(m.q);
         lo = i ? glm::min(lo, m.lo) : m.lo;
         hi = i ? glm::max(hi, m.hi) : m.hi;
     }
@@ -104,12 +109,13 @@ bool EdgeCollapser::makes_crossing(std::uint32_t v, std::uint32_t a, const std::
         const glm::dvec3 r[3] = {position(b[0]), position(b[1]), position(b[2])};
         const glm::dvec3 rlo = corner_min(r), rhi = corner_max(r);
         if (glm::any(glm::lessThan(rhi, lo)) || glm::any(glm::greaterThan(rlo, hi))) continue;
+        const glm::dvec3 nr = normal_of(r);
         for (const auto& m : moved_geometry_) {
             if (glm::any(glm::lessThan(rhi, m.lo)) || glm::any(glm::greaterThan(rlo, m.hi))) continue;
             bool shared = false;
             for (int i = 0; i < 3; ++i)
                 for (int j = 0; j < 3; ++j) shared |= b[i] == m.after[j];
-            if (!shared && triangles_cross(m.q, r) && !triangles_cross(m.p, r)) return true;
+            if (!shared && triangles_cross(m.q, m.nq, r, nr) && !triangles_cross(m.p, m.np, r, nr)) return true;
         }
     }
     return false;

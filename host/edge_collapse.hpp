@@ -44,9 +44,9 @@ private:
     std::vector<std::uint32_t> edge_, rest_, nv_, na_;  // collapse()'s scratch, kept to spare allocations
 
     std::optional<TriangleGrid> grid_;  // the crossing check's, made on its first query
-    struct MovedTriangle {  // makes_crossing()'s scratch: corners after, positions before and after, box after
+    struct MovedTriangle {  // makes_crossing()'s scratch: corners after, positions before and after, box after, normals
         std::uint32_t after[3];
-        glm::dvec3 p[3], q[3], lo, hi;
+        glm::dvec3 p[3], q[3], lo, hi, np, nq;
     };
     std::vector<MovedTriangle> moved_geometry_;
     std::vector<std::uint32_t> near_;
