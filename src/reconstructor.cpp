@@ -668,10 +668,10 @@ Mesh Reconstructor::reconstruct(const DevicePositions& d, const Params& params, 
             for (_cl_event* e : d.wait_for) events.emplace_back(e, true);
             rt.queue().enqueueBarrierWithWaitList(&events);
         }
-        if (params.normals != NormalMode::Gradient) {
+        if (params.normals != NormalMode::Gradient && !params.smooth) {
             impl_->device_in = std::move(in);
         } else {
-            host = read_device_positions(rt, in);  // the gradient normals read the particles on the host
+            host = read_device_positions(rt, in);  // gradient normals and smoothing weights read the particles on the host
         }
     } catch (const cl::Error& e) {
         rt.recover();

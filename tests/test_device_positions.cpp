@@ -219,3 +219,25 @@ TEST_CASE("Device positions: bad layouts, foreign buffers, non-finite coordinate
     CHECK(late->reconstruct(good.data(), n, p).triangle_count() > 0);
     delete late;
 }
+
+TEST_CASE("Device positions: smoothing, sliver cleanup and attributes-free post-processing read the positions too", "[device_positions]") {
+    // Smoothing weights read the particles on the host: the device path must hand them over (the
+    // same mesh as the host path's), not a null pointer.
+    trilevel::Reconstructor host;
+    Simulator sim(host.device().index);
+    trilevel::Reconstructor rec(sim.context, sim.device, sim.queue);
+    trilevel::Params p = params();
+    p.smooth = true;
+    const std::vector<float> xyz = trilevel::generate_scene("falling-drop", 0.025f, 1, 0).positions;
+    const std::size_t n = xyz.size() / 3;
+    trilevel::Stats hs, ds;
+    const trilevel::Mesh expected = host.reconstruct(xyz.data(), n, p, &hs);
+    trilevel::DevicePositions d;
+    d.buffer = sim.buffer(xyz);
+    d.count = n;
+    const trilevel::Mesh got = rec.reconstruct(d, p, &ds);
+    REQUIRE(got.triangle_count() > 0);
+    CHECK(same_mesh(got, expected));
+    CHECK(ds.closed);
+    CHECK(ds.sliver_edges_collapsed == hs.sliver_edges_collapsed);
+}

@@ -312,7 +312,8 @@ public:
     /// A frame like the others for the level history. The positions are read back to the host
     /// (count x 12 bytes, then the host path) only where the device path cannot give the same
     /// bits: a device without cl_khr_fp64 (the lattice origin is subtracted in double precision),
-    /// Params::normals == NormalMode::Gradient (the normals read the particles on the host), a
+    /// Params::normals == NormalMode::Gradient or Params::smooth (the normals and the smoothing
+    /// weights read the particles on the host), a
     /// radius outside [2^-10, 2^10] (scaled on the host) or particles too far apart for one lattice
     /// (split on the host). Errors as for the host path (a non-finite coordinate names the
     /// particle), plus a layout that does not fit the buffer or a buffer of another context.
