@@ -7,8 +7,17 @@
 
 namespace trilevel {
 
-std::size_t collapse_crack_runs(Mesh& mesh, const CrackRuns& runs) {
-    if (runs.empty()) return 0;
+std::size_t collapse_crack_runs(Mesh& mesh, const CrackRuns& runs, std::vector<std::uint32_t>* kept) {
+    auto keep_all = [&] {
+        if (kept) {
+            kept->resize(mesh.vertex_count());
+            for (std::uint32_t v = 0; v < kept->size(); ++v) (*kept)[v] = v;
+        }
+    };
+    if (runs.empty()) {
+        keep_all();
+        return 0;
+    }
     std::vector<std::uint32_t> vertices;  // every vertex of every run
     for (std::size_t i = 0; i < runs.size(); i += runs[i] + 1)
         vertices.insert(vertices.end(), runs.begin() + std::ptrdiff_t(i) + 1, runs.begin() + std::ptrdiff_t(i + runs[i]) + 1);
@@ -28,7 +37,12 @@ std::size_t collapse_crack_runs(Mesh& mesh, const CrackRuns& runs) {
             ++collapsed;
         }
     }
-    if (collapsed) c.compact();
+    if (collapsed) {
+        std::vector<std::uint32_t> left = c.compact();
+        if (kept) *kept = std::move(left);
+    } else {
+        keep_all();
+    }
     return collapsed;
 }
 

@@ -24,7 +24,8 @@ using CrackRuns = std::vector<std::uint32_t>;
 /// the mesh a closed oriented 2-manifold (link condition: the two ends share no neighbour but the
 /// two apexes of the edge) and flips no triangle; otherwise the patch stays. Runs are taken in
 /// their given order, so the result is deterministic. Removes the dead vertices and triangles
-/// (order of the rest kept) and returns how many vertices were collapsed.
-std::size_t collapse_crack_runs(Mesh& mesh, const CrackRuns& runs);
+/// (order of the rest kept) and returns how many vertices were collapsed. `kept`, where given,
+/// receives the old index of each vertex left, ascending (no vertex moves).
+std::size_t collapse_crack_runs(Mesh& mesh, const CrackRuns& runs, std::vector<std::uint32_t>* kept = nullptr);
 
 }  // namespace trilevel

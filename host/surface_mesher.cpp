@@ -17,6 +17,7 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_pipeline.h>
+#include <tbb/task_group.h>
 #include <tbb/task_arena.h>
 
 #include "core/cell_index.hpp"
@@ -312,8 +313,9 @@ CrackRuns global_runs(const std::vector<ChunkOut>& chunks, const std::vector<std
 
 }  // namespace
 
-Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame& lattice_frame,
-                       const FinePointMap& field, CrackClosing closing, std::size_t* collapsed) {
+Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame& lattice_frame, const FinePointMap& field,
+                       CrackClosing closing, std::size_t* collapsed,
+                       const std::function<void(std::vector<float>&&)>& beside_collapse, std::vector<std::uint32_t>* kept) {
     if (lattice_frame.coarse_steps < 2 || lattice_frame.coarse_steps % 2)
         throw Error("triangulation: coarse_steps must be even");
     // Phases 1-2 as a pipeline: chunks are meshed in parallel and numbered in order meanwhile.
@@ -361,7 +363,21 @@ Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame&
             release(ids[ci]);
         }
     });
-    const std::size_t merged = collapse_crack_runs(mesh, runs);
+    std::size_t merged = 0;
+    if (beside_collapse) {
+        std::vector<float> positions = mesh.positions;  // a copy: the collapse's compaction moves them
+        tbb::task_group beside;
+        beside.run([&] { beside_collapse(std::move(positions)); });
+        try {
+            merged = collapse_crack_runs(mesh, runs, kept);
+        } catch (...) {
+            beside.wait();
+            throw;
+        }
+        beside.wait();
+    } else {
+        merged = collapse_crack_runs(mesh, runs, kept);
+    }
     if (collapsed) *collapsed = merged;
     return mesh;
 }

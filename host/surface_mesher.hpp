@@ -1,6 +1,8 @@
 // Triangulation of the coarse surface cells (paper §3.3, docs/design.md §2 stages 9-10, §6, §7).
 #pragma once
 
+#include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "core/coarse_cells.hpp"
@@ -18,8 +20,14 @@ namespace trilevel {
 /// Closed and oriented whenever no crossing lies on a face without a neighbour (band closure).
 /// CrackClosing::Collapse then merges the cracks' inner crossings into the level-2 crossings
 /// (host/crack_collapse.hpp); `collapsed`, when given, receives how many vertices that removed.
+/// `beside_collapse`, when set, is called with a copy of the vertex positions before the crack
+/// collapse, on another host thread while the (serial) collapse runs: no collapse moves a vertex,
+/// so what it computes per vertex holds for the vertices left, whose old indices `kept` receives
+/// (ascending; all of them under CrackClosing::Patches).
 Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame& lattice_frame,
                        const FinePointMap& field, CrackClosing closing = CrackClosing::Collapse,
-                       std::size_t* collapsed = nullptr);
+                       std::size_t* collapsed = nullptr,
+                       const std::function<void(std::vector<float>&&)>& beside_collapse = {},
+                       std::vector<std::uint32_t>* kept = nullptr);
 
 }  // namespace trilevel

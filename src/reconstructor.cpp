@@ -279,17 +279,23 @@ private:
 /// Post-processing for rendering, in world units: sliver cleanup, then smoothing (Params::smooth,
 /// host/sliver_cleanup.hpp, host/mesh_smoothing.hpp), each timed when asked for. The grid is
 /// released after the weights unless `keep_grid` (the vertex stages read it later).
-void postprocess(Mesh& mesh, FrameGrid& grid, bool keep_grid, const Params& p, Stats& s) {
+void postprocess(Mesh& mesh, FrameGrid& grid, bool keep_grid, const Params& p, Stats& s, std::vector<float>&& early_weights) {
     if (!p.smooth && !p.sliver_cleanup) return;
     std::vector<float> weights;
     {
-        // With smoothing, the weights are computed beside the cleanup (serial) on the other host
-        // threads: they read only the vertex positions, which the cleanup never moves (a collapse
-        // keeps one end where it is), so the weights of the vertices left carry over. The stage's
-        // time is then that of both.
+        // With smoothing, the weights read only the vertex positions, which no collapse moves (it
+        // keeps one end where it is), so the weights of the vertices left carry over. They come
+        // computed beside the crack collapse (`early_weights`, one per vertex now), or else are
+        // computed beside this cleanup (serial) on the other host threads; the stage's time is then
+        // that of both.
         StageScope stage(s, "sliver_cleanup");
         if (!p.smooth) {
             s.sliver_edges_collapsed = collapse_slivers(mesh);
+        } else if (early_weights.size() == mesh.vertex_count()) {
+            std::vector<std::uint32_t> kept;
+            s.sliver_edges_collapsed = collapse_slivers(mesh, &kept);
+            weights.resize(kept.size());
+            for (std::size_t v = 0; v < kept.size(); ++v) weights[v] = early_weights[kept[v]];
         } else {
             Mesh before;
             before.positions = mesh.positions;
@@ -383,6 +389,12 @@ struct Reconstructor::Impl {
     std::vector<float>* handed_over = nullptr;
     Params history_params;
     float user_radius = 0.0f;  ///< the radius as given, for messages (the pipeline may run scaled)
+    /// Set by reconstruct() for a frame whose post-processing reads per-vertex data of the
+    /// particles (smoothing weights) and whose mesh comes from one unscaled lattice: called with
+    /// the vertex positions (world units) before the crack collapse, beside it (run_stages(),
+    /// triangulate_cells()); crack_kept then holds the old index of each vertex the collapse left.
+    std::function<void(std::vector<float>&&)> beside_crack_collapse;
+    std::vector<std::uint32_t> crack_kept;
 
     // A frame's mesh, before post-processing, in three steps, each calling the next:
     /// Checks the radius against the particles and scales the lengths into the range the float
@@ -610,7 +622,9 @@ Mesh Reconstructor::Impl::run_stages(const float* xyz, std::size_t n, const Para
             count_points(table.view, s);
             check_host(double(s.fine_points) * constants::kMeshBytesPerFinePoint, host,
                        "the mesh of " + std::to_string(s.fine_points) + " fine points");
-            mesh = triangulate_cells(cells, g.lattice, table.view, p.crack_closing, &s.crack_vertices_collapsed);
+            const bool beside = keep_levels && beside_crack_collapse;  // one lattice: its mesh is the frame's
+            mesh = triangulate_cells(cells, g.lattice, table.view, p.crack_closing, &s.crack_vertices_collapsed,
+                                     beside ? beside_crack_collapse : nullptr, beside ? &crack_kept : nullptr);
             table.unmap(rt);
             points = FinePoints{};
             rt.set_stage("");  // a first frame's pool gives the table back now, not after the checks below
@@ -735,12 +749,38 @@ Mesh Reconstructor::reconstruct(const float* xyz, std::size_t count, const Param
     // Whatever fails, the runtime is reset (queue drained, events dropped) so that the next frame
     // starts clean, and no partial mesh is returned.
     try {
+        FrameGrid grid(xyz, count, params);  // built by the first stage that reads the particles
+        const bool keep_grid = gradient_normals_wanted(params) || !attributes.empty();
+        // The smoothing weights, computed beside the crack collapse where the mesh comes from one
+        // unscaled lattice (a host core waits there otherwise); else post-processing computes them.
+        std::vector<float> early_weights;
+        struct Beside {  // whatever happens, the hook does not outlive this frame
+            Impl& impl;
+            ~Beside() {
+                impl.beside_crack_collapse = nullptr;
+                impl.crack_kept.clear();
+            }
+        } beside{*impl_};
+        if (params.smooth && xyz && length_scale_exponent(params.particle_radius) == 0)
+            impl_->beside_crack_collapse = [&](std::vector<float>&& positions) {
+                Mesh before;
+                before.positions = std::move(positions);
+                early_weights = smoothing_weights(before, grid.get(), params.particle_radius, params.kernel_radius * params.particle_radius);
+                if (!keep_grid) grid.release();
+            };
         Mesh m = impl_->mesh_in_float_range(xyz, count, params, s);
         rt.end_frame();  // the frame's buffers stay pooled for the next one (trimmed when oversized)
+        if (impl_->crack_kept.size() == m.vertex_count() && !early_weights.empty()) {
+            std::vector<float> left(m.vertex_count());
+            for (std::size_t v = 0; v < left.size(); ++v) left[v] = early_weights[impl_->crack_kept[v]];
+            early_weights.swap(left);
+        } else {
+            early_weights.clear();
+        }
         // Post-processing, normals and attributes: world units, after any scaling or split.
         if (params.remove_components_below > 0.0f) remove_components(m, params, s);
-        FrameGrid grid(xyz, count, params);  // built by the first stage that reads the particles
-        postprocess(m, grid, gradient_normals_wanted(params) || !attributes.empty(), params, s);
+        if (s.components_removed) early_weights.clear();  // renumbered: computed again after
+        postprocess(m, grid, keep_grid, params, s, std::move(early_weights));
         if (params.clip_box) clip_to_box(m, params, s);  // last: every vertex ends in the box
         add_vertex_data(m, grid, xyz, count, params, attributes, s);
         s.time_ms.emplace_back("total", std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
