@@ -80,13 +80,21 @@ bool EdgeCollapser::flips(std::uint32_t t, std::uint32_t v, glm::dvec3 to) {
     return glm::dot(before, after) <= 0.0;
 }
 
-bool EdgeCollapser::makes_crossing(std::uint32_t v, std::uint32_t a, const std::vector<std::uint32_t>& moved) {
+void EdgeCollapser::prepare_parallel() {
     if (!grid_) grid_.emplace(m_, dead_tri_);
+}
+
+void EdgeCollapser::adopt(Worker& w) { grid_->adopt(w.relisted); }
+
+bool EdgeCollapser::makes_crossing(std::uint32_t v, std::uint32_t a, const std::vector<std::uint32_t>& moved, Worker& w) {
+    if (!grid_) grid_.emplace(m_, dead_tri_);
+    auto& moved_geometry = w.moved;
+    auto& near = w.near;
     // The moved triangles before and after, and the box around them all after the move.
-    moved_geometry_.resize(moved.size());
+    moved_geometry.resize(moved.size());
     glm::dvec3 lo(0.0), hi(0.0);
     for (std::size_t i = 0; i < moved.size(); ++i) {
-        auto& m = moved_geometry_[i];
+        auto& m = moved_geometry[i];
         const std::uint32_t* c = corners(moved[i]);
         for (int k = 0; k < 3; ++k) {
             m.after[k] = c[k] == v ? a : c[k];
@@ -100,9 +108,9 @@ bool EdgeCollapser::makes_crossing(std::uint32_t v, std::uint32_t a, const std::
         lo = i ? glm::min(lo, m.lo) : m.lo;
         hi = i ? glm::max(hi, m.hi) : m.hi;
     }
-    near_.clear();
-    grid_->for_each_near(lo, hi, [&](std::uint32_t t) { near_.push_back(t); });
-    for (std::uint32_t u : near_) {
+    near.clear();
+    grid_->for_each_near(lo, hi, w.parallel ? &w.relisted : nullptr, [&](std::uint32_t t) { near.push_back(t); });
+    for (std::uint32_t u : near) {
         if (dead_tri_[u]) continue;
         const std::uint32_t* b = corners(u);
         if (b[0] == v || b[1] == v || b[2] == v) continue;  // v's own triangles: they vanish or move too
@@ -110,7 +118,7 @@ bool EdgeCollapser::makes_crossing(std::uint32_t v, std::uint32_t a, const std::
         const glm::dvec3 rlo = corner_min(r), rhi = corner_max(r);
         if (glm::any(glm::lessThan(rhi, lo)) || glm::any(glm::greaterThan(rlo, hi))) continue;
         const glm::dvec3 nr = normal_of(r);
-        for (const auto& m : moved_geometry_) {
+        for (const auto& m : moved_geometry) {
             if (glm::any(glm::lessThan(rhi, m.lo)) || glm::any(glm::greaterThan(rlo, m.hi))) continue;
             bool shared = false;
             for (int i = 0; i < 3; ++i)
@@ -121,11 +129,12 @@ bool EdgeCollapser::makes_crossing(std::uint32_t v, std::uint32_t a, const std::
     return false;
 }
 
-bool EdgeCollapser::collapse(std::uint32_t v, std::uint32_t a) {
+EdgeCollapser::Outcome EdgeCollapser::collapse(std::uint32_t v, std::uint32_t a, Worker& w) {
+    constexpr Outcome refused = Outcome::Refused;
     auto& tv = alive_triangles(v);
     auto& ta = alive_triangles(a);
     // v's triangles: the two on edge (v, a), which vanish, and the rest, which take a.
-    auto &edge = edge_, &rest = rest_, &nv = nv_, &na = na_;
+    auto &edge = w.edge, &rest = w.rest, &nv = w.nv, &na = w.na;
     edge.clear();
     rest.clear();
     nv.clear();
@@ -134,13 +143,13 @@ bool EdgeCollapser::collapse(std::uint32_t v, std::uint32_t a) {
         const std::uint32_t* c = corners(t);
         (c[0] == a || c[1] == a || c[2] == a ? edge : rest).push_back(t);
     }
-    if (edge.size() != 2) return false;
+    if (edge.size() != 2) return refused;
     std::uint32_t apex[2];
     for (int e = 0; e < 2; ++e) {
         const std::uint32_t* c = corners(edge[e]);
         apex[e] = c[0] != v && c[0] != a ? c[0] : c[1] != v && c[1] != a ? c[1] : c[2];
     }
-    if (apex[0] == apex[1]) return false;
+    if (apex[0] == apex[1]) return refused;
     // Link condition: v and a may share no neighbour but the two apexes, else the merged vertex
     // would carry a non-manifold edge. Neighbour lists here hold a dozen vertices.
     for (auto [ts, n] : {std::pair{&tv, &nv}, std::pair{&ta, &na}}) {
@@ -148,14 +157,19 @@ bool EdgeCollapser::collapse(std::uint32_t v, std::uint32_t a) {
         std::sort(n->begin(), n->end());
         n->erase(std::unique(n->begin(), n->end()), n->end());
     }
-    if (nv.size() == 4 && na.size() == 4) return false;  // a tetrahedron would fold shut
+    if (nv.size() == 4 && na.size() == 4) return refused;  // a tetrahedron would fold shut
     for (std::uint32_t x : nv)
         if (x != v && x != a && x != apex[0] && x != apex[1] && std::binary_search(na.begin(), na.end(), x))
-            return false;
+            return refused;
     const glm::dvec3 to = position(a);
     for (std::uint32_t t : rest)
-        if (flips(t, v, to)) return false;
-    if (makes_crossing(v, a, rest)) return false;
+        if (flips(t, v, to)) return refused;
+    if (makes_crossing(v, a, rest, w)) return refused;
+    if (w.parallel)  // a region's moved triangles stay within the reach other threads' queries use
+        for (const MovedTriangle& m : w.moved) {
+            const glm::dvec3 d = m.hi - m.lo;
+            if (std::max(d.x, std::max(d.y, d.z)) > grid_->reach()) return Outcome::Deferred;
+        }
     for (std::uint32_t t : edge) dead_tri_[t] = 1;
     for (std::uint32_t t : rest) {
         std::uint32_t* c = corners(t);
@@ -163,11 +177,11 @@ bool EdgeCollapser::collapse(std::uint32_t v, std::uint32_t a) {
             if (c[k] == v) c[k] = a;
         ta.push_back(t);
         const glm::dvec3 p[3] = {position(c[0]), position(c[1]), position(c[2])};
-        if (grid_) grid_->relist(t, corner_min(p), corner_max(p));
+        if (grid_) grid_->relist(t, corner_min(p), corner_max(p), w.parallel ? &w.relisted : nullptr);
     }
     tv.clear();
     dead_vertex_[v] = 1;
-    return true;
+    return Outcome::Collapsed;
 }
 
 std::vector<std::uint32_t> EdgeCollapser::compact() {

@@ -26,7 +26,7 @@ public:
     EdgeCollapser(Mesh& mesh, const std::vector<std::uint32_t>& vertices);
     /// Merges vertex v into its neighbour a (a keeps its position); false (nothing changed) where
     /// that is not safe or (v, a) is no edge (any more).
-    bool collapse(std::uint32_t v, std::uint32_t a);
+    bool collapse(std::uint32_t v, std::uint32_t a) { return collapse(v, a, main_) == Outcome::Collapsed; }
     /// Drops the dead vertices and triangles, keeping the order of the rest (positions, levels,
     /// triangle kinds; the mesh has no normals or attributes yet). Returns the old index of each
     /// vertex left, ascending.
@@ -36,27 +36,48 @@ public:
     }
     bool dead(std::uint32_t v) const { return dead_vertex_[v] != 0; }
 
+    // Collapses on several threads at once, each in its own region (sliver_cleanup.cpp). A
+    // collapse reads and writes only triangles whose boxes' low corners lie within
+    // 3 interaction_reach() of v along every axis, as long as no triangle grows beyond the
+    // crossing check's reach(); a Worker's collapse that would grow one is deferred instead.
+    struct Worker;
+    enum class Outcome { Collapsed, Refused, Deferred };
+    /// The crossing check's index, made now (the regions' collapses must not make it).
+    void prepare_parallel();
+    /// A bound on how far a collapse's reads and writes reach beyond v's triangles (the index's
+    /// cell side, at least the largest triangle extent); prepare_parallel() first.
+    double interaction_reach() const { return grid_->cell_side(); }
+    Outcome collapse(std::uint32_t v, std::uint32_t a, Worker& w);
+    /// Moves the triangles a worker relisted into the index's own lists (between parallel phases).
+    void adopt(Worker& w);
+
+    /// collapse()'s scratch and, for a worker, the triangles it relisted (triangle_grid.hpp).
+    struct MovedTriangle {  // makes_crossing()'s scratch: corners after, positions before and after, box after, normals
+        std::uint32_t after[3];
+        glm::dvec3 p[3], q[3], lo, hi, np, nq;
+    };
+    struct Worker {
+        bool parallel = false;  ///< a region's worker: its relists are its own, growth is deferred
+        std::vector<std::uint32_t> edge, rest, nv, na;
+        std::vector<MovedTriangle> moved;
+        std::vector<std::uint32_t> near;
+        TriangleGrid::Local relisted;
+    };
+
 private:
     Mesh& m_;
     std::vector<std::int32_t> list_;                 // vertex -> its triangle list, -1: not listed
     std::vector<std::vector<std::uint32_t>> tris_;   // triangles around each listed vertex (dead ones pruned lazily)
     std::vector<std::uint8_t> dead_tri_, dead_vertex_;
-    std::vector<std::uint32_t> edge_, rest_, nv_, na_;  // collapse()'s scratch, kept to spare allocations
-
+    Worker main_;                        // collapse()'s, single-threaded
     std::optional<TriangleGrid> grid_;  // the crossing check's, made on its first query
-    struct MovedTriangle {  // makes_crossing()'s scratch: corners after, positions before and after, box after, normals
-        std::uint32_t after[3];
-        glm::dvec3 p[3], q[3], lo, hi, np, nq;
-    };
-    std::vector<MovedTriangle> moved_geometry_;
-    std::vector<std::uint32_t> near_;
 
     std::uint32_t* corners(std::uint32_t t) { return m_.triangles.data() + 3 * std::size_t(t); }
     std::vector<std::uint32_t>& alive_triangles(std::uint32_t v);
     bool flips(std::uint32_t t, std::uint32_t v, glm::dvec3 to);
     // Would moving v onto a make one of `moved` (v's triangles off edge (v, a)) cross a triangle it
-    // crossed nowhere before and shares no vertex with?
-    bool makes_crossing(std::uint32_t v, std::uint32_t a, const std::vector<std::uint32_t>& moved);
+    // crossed nowhere before and shares no vertex with? Leaves the moved triangles in w.moved.
+    bool makes_crossing(std::uint32_t v, std::uint32_t a, const std::vector<std::uint32_t>& moved, Worker& w);
 };
 
 }  // namespace trilevel

@@ -7,6 +7,8 @@
 #include <vector>
 
 #include <glm/glm.hpp>
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include "edge_collapse.hpp"
@@ -47,9 +49,49 @@ std::size_t collapse_slivers(Mesh& mesh, std::vector<std::uint32_t>* kept) {
     vertices.reserve(2 * edges.size());
     for (auto [a, b] : edges) vertices.insert(vertices.end(), {a, b});
     EdgeCollapser c(mesh, vertices);
+    c.prepare_parallel();
+    // Regions: slabs across the mesh's longest axis, 6 interaction reaches wide, the even ones on
+    // all threads at once, then the odd ones. A collapse reads within 3 and writes within 2 reaches
+    // of its v (edge_collapse.hpp), so two slabs of one parity, a slab apart, never meet; the
+    // result does not depend on the threads. In a slab, the edges in their order; an edge whose
+    // collapse would grow a triangle beyond the crossing check's reach waits for the serial pass
+    // at the end, in the edges' order. Each edge's v is its higher end (merged into the lower).
+    glm::dvec3 lo = at(edges[0].second), hi = lo;
+    for (auto [a, b] : edges) {
+        lo = glm::min(lo, at(b));
+        hi = glm::max(hi, at(b));
+    }
+    const glm::dvec3 size = hi - lo;
+    const int axis = size.x >= size.y && size.x >= size.z ? 0 : size.y >= size.z ? 1 : 2;
+    const double width = 6.0 * c.interaction_reach();
+    const std::size_t slabs = std::size_t(std::min(std::floor(size[axis] / width), 1e6)) + 1;
+    std::vector<std::vector<std::uint32_t>> in_slab(slabs);  // edge indices, ascending
+    for (std::uint32_t i = 0; i < edges.size(); ++i)
+        in_slab[std::min(slabs - 1, std::size_t((at(edges[i].second)[axis] - lo[axis]) / width))].push_back(i);
+    std::vector<std::uint8_t> deferred(edges.size(), 0), done(edges.size(), 0);
+    tbb::enumerable_thread_specific<EdgeCollapser::Worker> workers([] {
+        EdgeCollapser::Worker w;
+        w.parallel = true;
+        return w;
+    });
+    for (std::size_t parity = 0; parity < 2; ++parity) {
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, (slabs + 1 - parity) / 2, 1), [&](const auto& range) {
+            EdgeCollapser::Worker& w = workers.local();
+            for (std::size_t k = range.begin(); k != range.end(); ++k)
+                for (std::uint32_t i : in_slab[2 * k + parity]) {
+                    const auto [a, b] = edges[i];  // an edge listed twice, or gone with an earlier collapse, is refused
+                    if (c.dead(a) || c.dead(b)) continue;
+                    const EdgeCollapser::Outcome o = c.collapse(b, a, w);
+                    done[i] = o == EdgeCollapser::Outcome::Collapsed;
+                    deferred[i] = o == EdgeCollapser::Outcome::Deferred;
+                }
+        });
+        for (EdgeCollapser::Worker& w : workers) c.adopt(w);
+    }
+    for (std::uint32_t i = 0; i < edges.size(); ++i)
+        if (deferred[i] && !c.dead(edges[i].first) && !c.dead(edges[i].second)) done[i] = c.collapse(edges[i].second, edges[i].first);
     std::size_t collapsed = 0;
-    for (auto [a, b] : edges)  // an edge listed twice, or gone with an earlier collapse, is refused
-        if (!c.dead(a) && !c.dead(b) && c.collapse(b, a)) ++collapsed;
+    for (std::uint8_t d : done) collapsed += d;
     if (collapsed) {
         std::vector<std::uint32_t> left = c.compact();
         if (kept) *kept = std::move(left);

@@ -91,16 +91,39 @@ glm::ivec3 TriangleGrid::cell(glm::dvec3 p) const {
     return glm::ivec3(c);
 }
 
-void TriangleGrid::relist(std::uint32_t t, glm::dvec3 lo, glm::dvec3 hi) {
-    const glm::ivec3 k = cell(lo);
-    const std::size_t c = index(k.x, k.y, k.z);
+void TriangleGrid::relist_in_grid(std::uint32_t t, std::size_t c) {
     moved_tri_.push_back(t);
     moved_next_.push_back(moved_head_[c]);
     moved_head_[c] = std::uint32_t(moved_tri_.size() - 1);
-    ++moved_in_row_[std::size_t(k.z) * std::size_t(dims_.y) + std::size_t(k.y)];
+    ++moved_in_row_[c / std::size_t(dims_.x)];
+}
+
+void TriangleGrid::relist(std::uint32_t t, glm::dvec3 lo, glm::dvec3 hi, Local* local) {
+    const glm::ivec3 k = cell(lo);
+    const std::size_t c = index(k.x, k.y, k.z);
     relisted_[t] = 1;
-    const glm::dvec3 d = hi - lo;
-    reach_ = std::max(reach_, std::max(d.x, std::max(d.y, d.z)));
+    if (!local) {
+        relist_in_grid(t, c);
+        const glm::dvec3 d = hi - lo;
+        reach_ = std::max(reach_, std::max(d.x, std::max(d.y, d.z)));
+        return;
+    }
+    // A Local's triangles must keep within reach(): queries of other threads use it unchanged.
+    if (local->head_.empty()) local->head_.assign(moved_head_.size(), ~0u);
+    local->tri_.push_back(t);
+    local->cell_.push_back(std::uint32_t(c));
+    local->next_.push_back(local->head_[c]);
+    local->head_[c] = std::uint32_t(local->tri_.size() - 1);
+}
+
+void TriangleGrid::adopt(Local& local) {
+    for (std::size_t k = 0; k < local.tri_.size(); ++k) {
+        relist_in_grid(local.tri_[k], local.cell_[k]);
+        if (!local.head_.empty()) local.head_[local.cell_[k]] = ~0u;  // left clean for its next region
+    }
+    local.tri_.clear();
+    local.next_.clear();
+    local.cell_.clear();
 }
 
 }  // namespace trilevel

@@ -5,6 +5,10 @@
 // to its high corner: 3 x 3 x 3 cells for a box of one cell. The cells are dense and in x-rows,
 // so such a query reads 9 contiguous runs of entries, each entry's box beside it. A splayed mesh
 // whose grid would be too large gets larger cells (more entries per cell, same answers).
+//
+// Triangles whose corners change are listed again in per-cell lists: the grid's own, or a
+// Local's, where several threads move triangles at once in regions far apart (each query then
+// sees the grid's lists and its own thread's); adopt() moves a Local's into the grid's.
 #pragma once
 
 #include <cstddef>
@@ -22,15 +26,35 @@ public:
     /// Lists every triangle t of `mesh` with dead[t] == 0 by its box now.
     TriangleGrid(const Mesh& mesh, const std::vector<std::uint8_t>& dead);
 
-    /// Lists triangle t again by its new box lo..hi (its corners changed); its older entries are
-    /// ignored from now on.
-    void relist(std::uint32_t t, glm::dvec3 lo, glm::dvec3 hi);
+    /// One thread's relisted triangles while others relist theirs (see above).
+    class Local {
+    public:
+        Local() = default;
+
+    private:
+        friend class TriangleGrid;
+        std::vector<std::uint32_t> head_;             // per cell: its newest entry, ~0u: none (allocated on first use)
+        std::vector<std::uint32_t> next_, tri_, cell_;  // entries, oldest first
+        std::vector<std::uint32_t> reported_;         // a query's relisted triangles, reported once
+    };
+
+    /// Lists triangle t again by its new box lo..hi (its corners changed), in the grid's lists or
+    /// in `local`'s; its older entries are ignored from now on.
+    void relist(std::uint32_t t, glm::dvec3 lo, glm::dvec3 hi, Local* local = nullptr);
+
+    /// Moves `local`'s entries into the grid's lists, in their order, and empties it.
+    void adopt(Local& local);
 
     /// Calls visit(t) once for each listed triangle whose box (at its latest listing) may overlap
-    /// the box lo..hi: every one that does, and some that do not (a moved triangle's box is not
-    /// kept, the caller tests its corners).
+    /// the box lo..hi: every one that does, and some that do not (a relisted triangle's box is not
+    /// kept, the caller tests its corners). `local`: the calling thread's relisted triangles.
     template <class Visit>
-    void for_each_near(glm::dvec3 lo, glm::dvec3 hi, Visit&& visit);
+    void for_each_near(glm::dvec3 lo, glm::dvec3 hi, Local* local, Visit&& visit);
+
+    /// The largest extent of a listed triangle: a box's queries reach this far below its low corner.
+    double reach() const { return reach_; }
+    /// The cells' side (at least reach()).
+    double cell_side() const { return cell_; }
 
 private:
     double cell_ = 1.0, reach_ = 0.0;  // cell side; the largest triangle extent (a relisted one's too)
@@ -44,19 +68,34 @@ private:
     // a count per x-row so that rows without any are skipped.
     std::vector<std::uint32_t> moved_head_, moved_next_, moved_tri_, moved_in_row_;
     std::vector<std::uint8_t> relisted_;  // per triangle: its first entry is stale
-    std::vector<std::uint32_t> stamp_;    // per triangle: the last query that reported it
+    std::vector<std::uint32_t> stamp_;    // per triangle: the last query that reported it (grid's own queries)
     std::uint32_t query_ = 0;
 
     glm::ivec3 cell(glm::dvec3 p) const;
     std::size_t index(int x, int y, int z) const { return (std::size_t(z) * std::size_t(dims_.y) + std::size_t(y)) * std::size_t(dims_.x) + std::size_t(x); }
+    void relist_in_grid(std::uint32_t t, std::size_t c);
 };
 
 template <class Visit>
-void TriangleGrid::for_each_near(glm::dvec3 lo, glm::dvec3 hi, Visit&& visit) {
-    if (++query_ == 0) {  // the stamps wrapped around
+void TriangleGrid::for_each_near(glm::dvec3 lo, glm::dvec3 hi, Local* local, Visit&& visit) {
+    // Relisted triangles are reported once: by stamp for the grid's own (single-threaded) queries,
+    // by a short list for a Local's (a query meets a handful).
+    if (!local && ++query_ == 0) {  // the stamps wrapped around
         std::fill(stamp_.begin(), stamp_.end(), 0u);
         query_ = 1;
     }
+    if (local) local->reported_.clear();
+    auto report = [&](std::uint32_t t) {
+        if (!local) {
+            if (stamp_[t] == query_) return;
+            stamp_[t] = query_;
+        } else {
+            for (std::uint32_t u : local->reported_)
+                if (u == t) return;
+            local->reported_.push_back(t);
+        }
+        visit(t);
+    };
     const glm::vec3 lof(lo), hif(hi);  // a float box holds the float corners' box
     const glm::ivec3 c0 = cell(lo - reach_), c1 = cell(hi);
     for (int z = c0.z; z <= c1.z; ++z)
@@ -67,14 +106,12 @@ void TriangleGrid::for_each_near(glm::dvec3 lo, glm::dvec3 hi, Visit&& visit) {
                 const std::uint32_t t = entry_[i];
                 if (!relisted_[t]) visit(t);
             }
-            if (moved_in_row_[std::size_t(z) * std::size_t(dims_.y) + std::size_t(y)] == 0) continue;
-            for (int x = c0.x; x <= c1.x; ++x)
-                for (std::uint32_t k = moved_head_[row + std::size_t(x)]; k != ~0u; k = moved_next_[k]) {
-                    const std::uint32_t t = moved_tri_[k];
-                    if (stamp_[t] == query_) continue;
-                    stamp_[t] = query_;
-                    visit(t);
-                }
+            if (moved_in_row_[std::size_t(z) * std::size_t(dims_.y) + std::size_t(y)] != 0)
+                for (int x = c0.x; x <= c1.x; ++x)
+                    for (std::uint32_t k = moved_head_[row + std::size_t(x)]; k != ~0u; k = moved_next_[k]) report(moved_tri_[k]);
+            if (local && !local->head_.empty())
+                for (int x = c0.x; x <= c1.x; ++x)
+                    for (std::uint32_t k = local->head_[row + std::size_t(x)]; k != ~0u; k = local->next_[k]) report(local->tri_[k]);
         }
 }
 

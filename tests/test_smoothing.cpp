@@ -316,7 +316,8 @@ TEST_CASE("smoothing weights taken beside the crack collapse give the mesh of th
         const std::vector<float> positions = scene < 3 ? random_fluid(unsigned(scene), r)
                                                        : generate_scene(scene == 3 ? "pool-and-drop" : "torus", r, 3).positions;
         INFO("scene " << scene);
-        const ParticleSet s{positions};
+        ParticleSet s;
+        s.positions = positions;
         Stats a, b;
         Params p = params(r, true), q = p;
         p.curvature_threshold = 1.0f;  // more level-3 cells: more transitions, more crack collapses

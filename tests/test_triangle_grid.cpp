@@ -46,13 +46,13 @@ void box_of(const Mesh& m, std::uint32_t t, glm::dvec3& lo, glm::dvec3& hi) {
 }
 
 // Every query: the reported triangles hold each overlapping live one, once, and no dead one.
-void check_queries(TriangleGrid& grid, const Soup& s, std::mt19937& rng) {
+void check_queries(TriangleGrid& grid, const Soup& s, std::mt19937& rng, TriangleGrid::Local* local = nullptr) {
     std::uniform_real_distribution<double> unit(-0.1, 1.1);
     for (int q = 0; q < 200; ++q) {
         glm::dvec3 a(unit(rng), unit(rng), unit(rng)), b = a + 0.05 * glm::dvec3(unit(rng), unit(rng), unit(rng));
         const glm::dvec3 lo = glm::min(a, b), hi = glm::max(a, b);
         std::map<std::uint32_t, int> seen;
-        grid.for_each_near(lo, hi, [&](std::uint32_t t) { ++seen[t]; });
+        grid.for_each_near(lo, hi, local, [&](std::uint32_t t) { ++seen[t]; });
         for (auto [t, n] : seen) {
             REQUIRE(n == 1);
             REQUIRE(s.dead[t] == 0);
@@ -78,17 +78,31 @@ TEST_CASE("triangle grid finds every triangle overlapping a box, once, also afte
         std::mt19937 rng(11);
         check_queries(grid, s, rng);
         // Move corners of some triangles (as a collapse does: onto another vertex's position) and
-        // relist them, some twice.
+        // relist them, some twice: in the grid's own lists, then in a thread's Local (seen by
+        // queries with that Local), then adopted into the grid's.
         std::uniform_int_distribution<std::uint32_t> pick(0, std::uint32_t(s.mesh.triangle_count() - 1));
-        for (int round = 0; round < 2; ++round)
+        TriangleGrid::Local local;
+        auto move_some = [&](TriangleGrid::Local* into) {
             for (int i = 0; i < 300; ++i) {
                 const std::uint32_t t = pick(rng), other = pick(rng);
                 if (s.dead[t]) continue;
+                const std::uint32_t was = s.mesh.triangles[3 * t];
                 s.mesh.triangles[3 * t] = s.mesh.triangles[3 * other + 1];
                 glm::dvec3 lo, hi;
                 box_of(s.mesh, t, lo, hi);
-                grid.relist(t, lo, hi);
+                if (into && glm::any(glm::greaterThan(hi - lo, glm::dvec3(grid.reach())))) {  // a Local's keep within reach
+                    s.mesh.triangles[3 * t] = was;
+                    continue;
+                }
+                grid.relist(t, lo, hi, into);
             }
+        };
+        for (int round = 0; round < 2; ++round) move_some(nullptr);
         check_queries(grid, s, rng);
+        move_some(&local);
+        check_queries(grid, s, rng, &local);
+        grid.adopt(local);
+        check_queries(grid, s, rng);
+        check_queries(grid, s, rng, &local);  // emptied, and clean for its next use
     }
 }
