@@ -80,8 +80,10 @@ bool EdgeCollapser::flips(std::uint32_t t, std::uint32_t v, glm::dvec3 to) {
     return glm::dot(before, after) <= 0.0;
 }
 
-void EdgeCollapser::prepare_parallel() {
+void EdgeCollapser::prepare_parallel(double growth) {
     if (!grid_) grid_.emplace(m_, dead_tri_);
+    bound_ = growth * grid_->reach();
+    grid_->widen_reach(bound_);
 }
 
 void EdgeCollapser::adopt(Worker& w) { grid_->adopt(w.relisted); }
@@ -165,10 +167,10 @@ EdgeCollapser::Outcome EdgeCollapser::collapse(std::uint32_t v, std::uint32_t a,
     for (std::uint32_t t : rest)
         if (flips(t, v, to)) return refused;
     if (makes_crossing(v, a, rest, w)) return refused;
-    if (w.parallel)  // a region's moved triangles stay within the reach other threads' queries use
+    if (w.parallel)  // a region's moved triangles stay within the bound the regions are apart by
         for (const MovedTriangle& m : w.moved) {
             const glm::dvec3 d = m.hi - m.lo;
-            if (std::max(d.x, std::max(d.y, d.z)) > grid_->reach()) return Outcome::Deferred;
+            if (std::max(d.x, std::max(d.y, d.z)) > bound_) return Outcome::Deferred;
         }
     for (std::uint32_t t : edge) dead_tri_[t] = 1;
     for (std::uint32_t t : rest) {

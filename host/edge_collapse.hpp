@@ -36,17 +36,17 @@ public:
     }
     bool dead(std::uint32_t v) const { return dead_vertex_[v] != 0; }
 
-    // Collapses on several threads at once, each in its own region (sliver_cleanup.cpp). A
-    // collapse reads and writes only triangles whose boxes' low corners lie within
-    // 3 interaction_reach() of v along every axis, as long as no triangle grows beyond the
-    // crossing check's reach(); a Worker's collapse that would grow one is deferred instead.
+    // Collapses on several threads at once, each in its own region (sliver_cleanup.cpp). Where no
+    // triangle is larger than interaction_reach() along any axis, a collapse reads only triangles
+    // within 3 and writes only triangles within 2 interaction reaches of v along every axis; a
+    // Worker's collapse that would make a triangle larger is deferred instead.
     struct Worker;
     enum class Outcome { Collapsed, Refused, Deferred };
-    /// The crossing check's index, made now (the regions' collapses must not make it).
-    void prepare_parallel();
-    /// A bound on how far a collapse's reads and writes reach beyond v's triangles (the index's
-    /// cell side, at least the largest triangle extent); prepare_parallel() first.
-    double interaction_reach() const { return grid_->cell_side(); }
+    /// The crossing check's index, made now (the regions' collapses must not make it), its
+    /// queries widened to triangles `growth` times the largest now (moved triangles grow a little).
+    void prepare_parallel(double growth);
+    /// The index's cell side and the triangles' bound, whichever is larger; prepare_parallel() first.
+    double interaction_reach() const { return std::max(grid_->cell_side(), bound_); }
     Outcome collapse(std::uint32_t v, std::uint32_t a, Worker& w);
     /// Moves the triangles a worker relisted into the index's own lists (between parallel phases).
     void adopt(Worker& w);
@@ -70,6 +70,7 @@ private:
     std::vector<std::vector<std::uint32_t>> tris_;   // triangles around each listed vertex (dead ones pruned lazily)
     std::vector<std::uint8_t> dead_tri_, dead_vertex_;
     Worker main_;                        // collapse()'s, single-threaded
+    double bound_ = 0.0;                 // a Worker's moved triangles' largest extent
     std::optional<TriangleGrid> grid_;  // the crossing check's, made on its first query
 
     std::uint32_t* corners(std::uint32_t t) { return m_.triangles.data() + 3 * std::size_t(t); }

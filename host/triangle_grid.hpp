@@ -11,6 +11,7 @@
 // sees the grid's lists and its own thread's); adopt() moves a Local's into the grid's.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -53,6 +54,9 @@ public:
 
     /// The largest extent of a listed triangle: a box's queries reach this far below its low corner.
     double reach() const { return reach_; }
+    /// Queries reach at least r below a box from now on (triangles relisted in a Local may grow
+    /// up to r).
+    void widen_reach(double r) { reach_ = std::max(reach_, r); }
     /// The cells' side (at least reach()).
     double cell_side() const { return cell_; }
 
