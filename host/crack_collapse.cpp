@@ -8,14 +8,8 @@
 namespace trilevel {
 
 std::size_t collapse_crack_runs(Mesh& mesh, const CrackRuns& runs, std::vector<std::uint32_t>* kept) {
-    auto keep_all = [&] {
-        if (kept) {
-            kept->resize(mesh.vertex_count());
-            for (std::uint32_t v = 0; v < kept->size(); ++v) (*kept)[v] = v;
-        }
-    };
     if (runs.empty()) {
-        keep_all();
+        if (kept) *kept = every_vertex(mesh.vertex_count());
         return 0;
     }
     std::vector<std::uint32_t> vertices;  // every vertex of every run
@@ -40,8 +34,8 @@ std::size_t collapse_crack_runs(Mesh& mesh, const CrackRuns& runs, std::vector<s
     if (collapsed) {
         std::vector<std::uint32_t> left = c.compact();
         if (kept) *kept = std::move(left);
-    } else {
-        keep_all();
+    } else if (kept) {
+        *kept = every_vertex(mesh.vertex_count());
     }
     return collapsed;
 }

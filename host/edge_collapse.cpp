@@ -45,6 +45,12 @@ bool triangles_cross(const glm::dvec3 (&a)[3], glm::dvec3 na, const glm::dvec3 (
 
 }  // namespace
 
+std::vector<std::uint32_t> every_vertex(std::size_t n) {
+    std::vector<std::uint32_t> all(n);
+    for (std::size_t v = 0; v < n; ++v) all[v] = std::uint32_t(v);
+    return all;
+}
+
 EdgeCollapser::EdgeCollapser(Mesh& mesh, const std::vector<std::uint32_t>& vertices)
     : m_(mesh), list_(mesh.vertex_count(), -1), dead_tri_(mesh.triangle_count(), 0), dead_vertex_(mesh.vertex_count(), 0) {
     for (std::uint32_t v : vertices)

@@ -19,6 +19,9 @@
 
 namespace trilevel {
 
+/// The kept-vertex list of a mesh of n vertices that lost none: 0, 1, ..., n - 1.
+std::vector<std::uint32_t> every_vertex(std::size_t n);
+
 class EdgeCollapser {
 public:
     /// `vertices`: every vertex that collapse() may be given (as v or a); only those get triangle

@@ -35,14 +35,8 @@ std::size_t collapse_slivers(Mesh& mesh, std::vector<std::uint32_t>* kept) {
     });
     for (const auto& e : short_edge)
         if (e.first != kNone) edges.push_back(e);
-    auto keep_all = [&] {
-        if (kept) {
-            kept->resize(mesh.vertex_count());
-            for (std::uint32_t v = 0; v < kept->size(); ++v) (*kept)[v] = v;
-        }
-    };
     if (edges.empty()) {
-        keep_all();
+        if (kept) *kept = every_vertex(mesh.vertex_count());
         return 0;
     }
     std::vector<std::uint32_t> vertices;
@@ -97,8 +91,8 @@ std::size_t collapse_slivers(Mesh& mesh, std::vector<std::uint32_t>* kept) {
     if (collapsed) {
         std::vector<std::uint32_t> left = c.compact();
         if (kept) *kept = std::move(left);
-    } else {
-        keep_all();
+    } else if (kept) {
+        *kept = every_vertex(mesh.vertex_count());
     }
     return collapsed;
 }
