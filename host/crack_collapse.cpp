@@ -31,12 +31,8 @@ std::size_t collapse_crack_runs(Mesh& mesh, const CrackRuns& runs, std::vector<s
             ++collapsed;
         }
     }
-    if (collapsed) {
-        std::vector<std::uint32_t> left = c.compact();
-        if (kept) *kept = std::move(left);
-    } else if (kept) {
-        *kept = every_vertex(mesh.vertex_count());
-    }
+    std::vector<std::uint32_t> left = c.compact();
+    if (kept) *kept = std::move(left);
     return collapsed;
 }
 

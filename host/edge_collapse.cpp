@@ -117,7 +117,7 @@ bool EdgeCollapser::makes_crossing(std::uint32_t v, std::uint32_t a, const std::
         hi = i ? glm::max(hi, m.hi) : m.hi;
     }
     near.clear();
-    grid_->for_each_near(lo, hi, w.parallel ? &w.relisted : nullptr, [&](std::uint32_t t) { near.push_back(t); });
+    grid_->for_each_near(lo, hi, w.relisted, [&](std::uint32_t t) { near.push_back(t); });
     for (std::uint32_t u : near) {
         if (dead_tri_[u]) continue;
         const std::uint32_t* b = corners(u);
@@ -189,10 +189,12 @@ EdgeCollapser::Outcome EdgeCollapser::collapse(std::uint32_t v, std::uint32_t a,
     }
     tv.clear();
     dead_vertex_[v] = 1;
+    collapses_.fetch_add(1, std::memory_order_relaxed);
     return Outcome::Collapsed;
 }
 
 std::vector<std::uint32_t> EdgeCollapser::compact() {
+    if (collapses_ == 0) return every_vertex(m_.vertex_count());
     std::vector<std::uint32_t> id(m_.vertex_count()), kept_vertices;
     std::uint32_t n = 0;
     for (std::uint32_t v = 0; v < m_.vertex_count(); ++v) {

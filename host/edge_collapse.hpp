@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstddef>
+#include <atomic>
 #include <cstdint>
 #include <optional>
 #include <vector>
@@ -22,6 +23,15 @@ namespace trilevel {
 /// The kept-vertex list of a mesh of n vertices that lost none: 0, 1, ..., n - 1.
 std::vector<std::uint32_t> every_vertex(std::size_t n);
 
+/// Per-vertex values carried over a collapse: the value of each vertex left, from `values` per
+/// old vertex and the collapse's kept-vertex list (old index of each vertex left).
+template <class T>
+std::vector<T> kept_values(const std::vector<T>& values, const std::vector<std::uint32_t>& kept) {
+    std::vector<T> out(kept.size());
+    for (std::size_t v = 0; v < kept.size(); ++v) out[v] = values[kept[v]];
+    return out;
+}
+
 class EdgeCollapser {
 public:
     /// `vertices`: every vertex that collapse() may be given (as v or a); only those get triangle
@@ -32,12 +42,13 @@ public:
     bool collapse(std::uint32_t v, std::uint32_t a) { return collapse(v, a, main_) == Outcome::Collapsed; }
     /// Drops the dead vertices and triangles, keeping the order of the rest (positions, levels,
     /// triangle kinds; the mesh has no normals or attributes yet). Returns the old index of each
-    /// vertex left, ascending.
+    /// vertex left, ascending (every vertex, and nothing to drop, where no collapse was made).
     std::vector<std::uint32_t> compact();
     glm::dvec3 position(std::uint32_t v) const {
         return {m_.positions[3 * v], m_.positions[3 * v + 1], m_.positions[3 * v + 2]};
     }
     bool dead(std::uint32_t v) const { return dead_vertex_[v] != 0; }
+    std::size_t collapses() const { return collapses_; }  ///< made so far
 
     // Collapses on several threads at once, each in its own region (sliver_cleanup.cpp). Where no
     // triangle is larger than interaction_reach() along any axis, a collapse reads only triangles
@@ -54,7 +65,7 @@ public:
     /// Moves the triangles a worker relisted into the index's own lists (between parallel phases).
     void adopt(Worker& w);
 
-    /// collapse()'s scratch and, for a worker, the triangles it relisted (triangle_grid.hpp).
+    /// collapse()'s scratch and, for a region's worker, the triangles it relisted (triangle_grid.hpp).
     struct MovedTriangle {  // makes_crossing()'s scratch: corners after, positions before and after, box after, normals
         std::uint32_t after[3];
         glm::dvec3 p[3], q[3], lo, hi, np, nq;
@@ -72,6 +83,7 @@ private:
     std::vector<std::int32_t> list_;                 // vertex -> its triangle list, -1: not listed
     std::vector<std::vector<std::uint32_t>> tris_;   // triangles around each listed vertex (dead ones pruned lazily)
     std::vector<std::uint8_t> dead_tri_, dead_vertex_;
+    std::atomic<std::size_t> collapses_{0};  // made so far (Workers count theirs at once)
     Worker main_;                        // collapse()'s, single-threaded
     double bound_ = 0.0;                 // a Worker's moved triangles' largest extent
     std::optional<TriangleGrid> grid_;  // the crossing check's, made on its first query

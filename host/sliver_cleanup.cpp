@@ -64,7 +64,7 @@ std::size_t collapse_slivers(Mesh& mesh, std::vector<std::uint32_t>* kept) {
     std::vector<std::vector<std::uint32_t>> in_slab(slabs);  // edge indices, ascending
     for (std::uint32_t i = 0; i < edges.size(); ++i)
         in_slab[std::min(slabs - 1, std::size_t((at(edges[i].second)[axis] - lo[axis]) / width))].push_back(i);
-    std::vector<std::uint8_t> deferred(edges.size(), 0), done(edges.size(), 0);
+    std::vector<std::uint8_t> deferred(edges.size(), 0);
     tbb::enumerable_thread_specific<EdgeCollapser::Worker> workers([] {
         EdgeCollapser::Worker w;
         w.parallel = true;
@@ -77,23 +77,16 @@ std::size_t collapse_slivers(Mesh& mesh, std::vector<std::uint32_t>* kept) {
                 for (std::uint32_t i : in_slab[2 * k + parity]) {
                     const auto [a, b] = edges[i];  // an edge listed twice, or gone with an earlier collapse, is refused
                     if (c.dead(a) || c.dead(b)) continue;
-                    const EdgeCollapser::Outcome o = c.collapse(b, a, w);
-                    done[i] = o == EdgeCollapser::Outcome::Collapsed;
-                    deferred[i] = o == EdgeCollapser::Outcome::Deferred;
+                    deferred[i] = c.collapse(b, a, w) == EdgeCollapser::Outcome::Deferred;
                 }
         });
         for (EdgeCollapser::Worker& w : workers) c.adopt(w);
     }
     for (std::uint32_t i = 0; i < edges.size(); ++i)
-        if (deferred[i] && !c.dead(edges[i].first) && !c.dead(edges[i].second)) done[i] = c.collapse(edges[i].second, edges[i].first);
-    std::size_t collapsed = 0;
-    for (std::uint8_t d : done) collapsed += d;
-    if (collapsed) {
-        std::vector<std::uint32_t> left = c.compact();
-        if (kept) *kept = std::move(left);
-    } else if (kept) {
-        *kept = every_vertex(mesh.vertex_count());
-    }
+        if (deferred[i] && !c.dead(edges[i].first) && !c.dead(edges[i].second)) c.collapse(edges[i].second, edges[i].first);
+    const std::size_t collapsed = c.collapses();
+    std::vector<std::uint32_t> left = c.compact();
+    if (kept) *kept = std::move(left);
     return collapsed;
 }
 

@@ -17,10 +17,10 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_pipeline.h>
-#include <tbb/task_group.h>
 #include <tbb/task_arena.h>
 
 #include "core/cell_index.hpp"
+#include "core/run_beside.hpp"
 #include "crack_collapse.hpp"
 #include "crack_stitch.hpp"
 #include "marching_cubes.hpp"
@@ -364,19 +364,12 @@ Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame&
         }
     });
     std::size_t merged = 0;
+    auto collapse = [&] { merged = collapse_crack_runs(mesh, runs, kept); };
     if (beside_collapse) {
         std::vector<float> positions = mesh.positions;  // a copy: the collapse's compaction moves them
-        tbb::task_group beside;
-        beside.run([&] { beside_collapse(std::move(positions)); });
-        try {
-            merged = collapse_crack_runs(mesh, runs, kept);
-        } catch (...) {
-            beside.wait();
-            throw;
-        }
-        beside.wait();
+        run_beside([&] { beside_collapse(std::move(positions)); }, collapse);
     } else {
-        merged = collapse_crack_runs(mesh, runs, kept);
+        collapse();
     }
     if (collapsed) *collapsed = merged;
     return mesh;

@@ -13,7 +13,6 @@ namespace trilevel {
 TriangleGrid::TriangleGrid(const Mesh& mesh, const std::vector<std::uint8_t>& dead) {
     const std::uint32_t nt = std::uint32_t(mesh.triangle_count());
     relisted_.assign(nt, 0);
-    stamp_.assign(nt, 0);
     // Boxes in floats: they hold the float positions' bounds exactly. Taken again in each pass
     // below rather than kept (two more arrays as large as the entries').
     const float* x = mesh.positions.data();

@@ -8,7 +8,8 @@
 //
 // Triangles whose corners change are listed again in per-cell lists: the grid's own, or a
 // Local's, where several threads move triangles at once in regions far apart (each query then
-// sees the grid's lists and its own thread's); adopt() moves a Local's into the grid's.
+// sees the grid's lists and its own thread's); adopt() moves a Local's into the grid's. Every
+// query runs with a Local, its own thread's (also its scratch).
 #pragma once
 
 #include <algorithm>
@@ -27,7 +28,7 @@ public:
     /// Lists every triangle t of `mesh` with dead[t] == 0 by its box now.
     TriangleGrid(const Mesh& mesh, const std::vector<std::uint8_t>& dead);
 
-    /// One thread's relisted triangles while others relist theirs (see above).
+    /// One thread's relisted triangles while others relist theirs (see above), and its queries' scratch.
     class Local {
     public:
         Local() = default;
@@ -48,9 +49,9 @@ public:
 
     /// Calls visit(t) once for each listed triangle whose box (at its latest listing) may overlap
     /// the box lo..hi: every one that does, and some that do not (a relisted triangle's box is not
-    /// kept, the caller tests its corners). `local`: the calling thread's relisted triangles.
+    /// kept, the caller tests its corners). `local`: the calling thread's.
     template <class Visit>
-    void for_each_near(glm::dvec3 lo, glm::dvec3 hi, Local* local, Visit&& visit);
+    void for_each_near(glm::dvec3 lo, glm::dvec3 hi, Local& local, Visit&& visit);
 
     /// The largest extent of a listed triangle: a box's queries reach this far below its low corner.
     double reach() const { return reach_; }
@@ -72,8 +73,6 @@ private:
     // a count per x-row so that rows without any are skipped.
     std::vector<std::uint32_t> moved_head_, moved_next_, moved_tri_, moved_in_row_;
     std::vector<std::uint8_t> relisted_;  // per triangle: its first entry is stale
-    std::vector<std::uint32_t> stamp_;    // per triangle: the last query that reported it (grid's own queries)
-    std::uint32_t query_ = 0;
 
     glm::ivec3 cell(glm::dvec3 p) const;
     std::size_t index(int x, int y, int z) const { return (std::size_t(z) * std::size_t(dims_.y) + std::size_t(y)) * std::size_t(dims_.x) + std::size_t(x); }
@@ -81,23 +80,13 @@ private:
 };
 
 template <class Visit>
-void TriangleGrid::for_each_near(glm::dvec3 lo, glm::dvec3 hi, Local* local, Visit&& visit) {
-    // Relisted triangles are reported once: by stamp for the grid's own (single-threaded) queries,
-    // by a short list for a Local's (a query meets a handful).
-    if (!local && ++query_ == 0) {  // the stamps wrapped around
-        std::fill(stamp_.begin(), stamp_.end(), 0u);
-        query_ = 1;
-    }
-    if (local) local->reported_.clear();
+void TriangleGrid::for_each_near(glm::dvec3 lo, glm::dvec3 hi, Local& local, Visit&& visit) {
+    // A relisted triangle (listed again each time it moves) is reported once: a query meets a handful.
+    local.reported_.clear();
     auto report = [&](std::uint32_t t) {
-        if (!local) {
-            if (stamp_[t] == query_) return;
-            stamp_[t] = query_;
-        } else {
-            for (std::uint32_t u : local->reported_)
-                if (u == t) return;
-            local->reported_.push_back(t);
-        }
+        for (std::uint32_t u : local.reported_)
+            if (u == t) return;
+        local.reported_.push_back(t);
         visit(t);
     };
     const glm::vec3 lof(lo), hif(hi);  // a float box holds the float corners' box
@@ -113,9 +102,9 @@ void TriangleGrid::for_each_near(glm::dvec3 lo, glm::dvec3 hi, Local* local, Vis
             if (moved_in_row_[std::size_t(z) * std::size_t(dims_.y) + std::size_t(y)] != 0)
                 for (int x = c0.x; x <= c1.x; ++x)
                     for (std::uint32_t k = moved_head_[row + std::size_t(x)]; k != ~0u; k = moved_next_[k]) report(moved_tri_[k]);
-            if (local && !local->head_.empty())
+            if (!local.head_.empty())
                 for (int x = c0.x; x <= c1.x; ++x)
-                    for (std::uint32_t k = local->head_[row + std::size_t(x)]; k != ~0u; k = local->next_[k]) report(local->tri_[k]);
+                    for (std::uint32_t k = local.head_[row + std::size_t(x)]; k != ~0u; k = local.next_[k]) report(local.tri_[k]);
         }
 }
 

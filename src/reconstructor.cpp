@@ -15,9 +15,10 @@
 #include <tbb/global_control.h>
 #include <tbb/parallel_reduce.h>
 #include <tbb/task_arena.h>
-#include <tbb/task_group.h>
 
 #include "band_closure.hpp"
+#include "core/run_beside.hpp"
+#include "edge_collapse.hpp"
 #include "device_input.hpp"
 #include "device_stages.hpp"
 #include "domain_split.hpp"
@@ -276,11 +277,22 @@ private:
     std::optional<ParticleGrid> grid_;
 };
 
+/// The smoothing weights of `mesh`'s vertices (host/mesh_smoothing.hpp) from the frame's grid,
+/// which is released after them unless `keep_grid` (the vertex stages read it later).
+std::vector<float> frame_weights(const Mesh& mesh, FrameGrid& grid, bool keep_grid, const Params& p) {
+    std::vector<float> w = smoothing_weights(mesh, grid.get(), p.particle_radius, p.kernel_radius * p.particle_radius);
+    if (!keep_grid) grid.release();  // freed before the smoothing's own arrays
+    return w;
+}
+
+/// Whether post-processing changes the mesh (and then checks it for closedness itself).
+bool postprocessed(const Params& p) { return p.smooth || p.sliver_cleanup; }
+
 /// Post-processing for rendering, in world units: sliver cleanup, then smoothing (Params::smooth,
 /// host/sliver_cleanup.hpp, host/mesh_smoothing.hpp), each timed when asked for. The grid is
 /// released after the weights unless `keep_grid` (the vertex stages read it later).
 void postprocess(Mesh& mesh, FrameGrid& grid, bool keep_grid, const Params& p, Stats& s, std::vector<float>&& early_weights) {
-    if (!p.smooth && !p.sliver_cleanup) return;
+    if (!postprocessed(p)) return;
     std::vector<float> weights;
     {
         // With smoothing, the weights read only the vertex positions, which no collapse moves (it
@@ -291,30 +303,17 @@ void postprocess(Mesh& mesh, FrameGrid& grid, bool keep_grid, const Params& p, S
         StageScope stage(s, "sliver_cleanup");
         if (!p.smooth) {
             s.sliver_edges_collapsed = collapse_slivers(mesh);
-        } else if (early_weights.size() == mesh.vertex_count()) {
-            std::vector<std::uint32_t> kept;
-            s.sliver_edges_collapsed = collapse_slivers(mesh, &kept);
-            weights.resize(kept.size());
-            for (std::size_t v = 0; v < kept.size(); ++v) weights[v] = early_weights[kept[v]];
         } else {
-            Mesh before;
-            before.positions = mesh.positions;
-            std::vector<float> all;
-            tbb::task_group beside;
-            beside.run([&] {
-                all = smoothing_weights(before, grid.get(), p.particle_radius, p.kernel_radius * p.particle_radius);
-                if (!keep_grid) grid.release();  // freed before the smoothing's own arrays
-            });
             std::vector<std::uint32_t> kept;
-            try {
-                s.sliver_edges_collapsed = collapse_slivers(mesh, &kept);
-            } catch (...) {
-                beside.wait();
-                throw;
+            auto cleanup = [&] { s.sliver_edges_collapsed = collapse_slivers(mesh, &kept); };
+            if (early_weights.size() != mesh.vertex_count()) {
+                Mesh before;
+                before.positions = mesh.positions;
+                run_beside([&] { early_weights = frame_weights(before, grid, keep_grid, p); }, cleanup);
+            } else {
+                cleanup();
             }
-            beside.wait();
-            weights.resize(kept.size());
-            for (std::size_t v = 0; v < kept.size(); ++v) weights[v] = all[kept[v]];
+            weights = kept_values(early_weights, kept);
         }
     }
     if (p.smooth) {
@@ -631,7 +630,7 @@ Mesh Reconstructor::Impl::run_stages(const float* xyz, std::size_t n, const Para
         }
     }
     count_mesh(mesh, s);
-    if (!p.smooth && !p.sliver_cleanup) s.closed = is_closed_and_oriented(mesh);  // else checked after them
+    if (!postprocessed(p)) s.closed = is_closed_and_oriented(mesh);  // else checked after post-processing
     if (keep_levels) remember_levels(cells, g, p, s);
     for (auto& [name, ms] : rt.take_kernel_times()) s.kernel_ms.emplace_back(name, ms);
     rt.set_stage("");
@@ -765,18 +764,12 @@ Mesh Reconstructor::reconstruct(const float* xyz, std::size_t count, const Param
             impl_->beside_crack_collapse = [&](std::vector<float>&& positions) {
                 Mesh before;
                 before.positions = std::move(positions);
-                early_weights = smoothing_weights(before, grid.get(), params.particle_radius, params.kernel_radius * params.particle_radius);
-                if (!keep_grid) grid.release();
+                early_weights = frame_weights(before, grid, keep_grid, params);
             };
         Mesh m = impl_->mesh_in_float_range(xyz, count, params, s);
         rt.end_frame();  // the frame's buffers stay pooled for the next one (trimmed when oversized)
-        if (impl_->crack_kept.size() == m.vertex_count() && !early_weights.empty()) {
-            std::vector<float> left(m.vertex_count());
-            for (std::size_t v = 0; v < left.size(); ++v) left[v] = early_weights[impl_->crack_kept[v]];
-            early_weights.swap(left);
-        } else {
-            early_weights.clear();
-        }
+        const bool carried = impl_->crack_kept.size() == m.vertex_count() && !early_weights.empty();
+        early_weights = carried ? kept_values(early_weights, impl_->crack_kept) : std::vector<float>{};
         // Post-processing, normals and attributes: world units, after any scaling or split.
         if (params.remove_components_below > 0.0f) remove_components(m, params, s);
         if (s.components_removed) early_weights.clear();  // renumbered: computed again after

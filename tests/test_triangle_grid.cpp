@@ -46,7 +46,7 @@ void box_of(const Mesh& m, std::uint32_t t, glm::dvec3& lo, glm::dvec3& hi) {
 }
 
 // Every query: the reported triangles hold each overlapping live one, once, and no dead one.
-void check_queries(TriangleGrid& grid, const Soup& s, std::mt19937& rng, TriangleGrid::Local* local = nullptr) {
+void check_queries(TriangleGrid& grid, const Soup& s, std::mt19937& rng, TriangleGrid::Local& local) {
     std::uniform_real_distribution<double> unit(-0.1, 1.1);
     for (int q = 0; q < 200; ++q) {
         glm::dvec3 a(unit(rng), unit(rng), unit(rng)), b = a + 0.05 * glm::dvec3(unit(rng), unit(rng), unit(rng));
@@ -76,12 +76,12 @@ TEST_CASE("triangle grid finds every triangle overlapping a box, once, also afte
         Soup s = random_soup(7u + unsigned(spread), 3000, spread);
         TriangleGrid grid(s.mesh, s.dead);
         std::mt19937 rng(11);
-        check_queries(grid, s, rng);
+        TriangleGrid::Local local, scratch;  // a thread's relists; a query's scratch alone
+        check_queries(grid, s, rng, scratch);
         // Move corners of some triangles (as a collapse does: onto another vertex's position) and
         // relist them, some twice: in the grid's own lists, then in a thread's Local (seen by
         // queries with that Local), then adopted into the grid's.
         std::uniform_int_distribution<std::uint32_t> pick(0, std::uint32_t(s.mesh.triangle_count() - 1));
-        TriangleGrid::Local local;
         auto move_some = [&](TriangleGrid::Local* into) {
             for (int i = 0; i < 300; ++i) {
                 const std::uint32_t t = pick(rng), other = pick(rng);
@@ -98,11 +98,11 @@ TEST_CASE("triangle grid finds every triangle overlapping a box, once, also afte
             }
         };
         for (int round = 0; round < 2; ++round) move_some(nullptr);
-        check_queries(grid, s, rng);
+        check_queries(grid, s, rng, scratch);
         move_some(&local);
-        check_queries(grid, s, rng, &local);
+        check_queries(grid, s, rng, local);
         grid.adopt(local);
-        check_queries(grid, s, rng);
-        check_queries(grid, s, rng, &local);  // emptied, and clean for its next use
+        check_queries(grid, s, rng, scratch);
+        check_queries(grid, s, rng, local);  // emptied, and clean for its next use
     }
 }
