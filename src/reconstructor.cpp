@@ -258,6 +258,10 @@ MappedFinePoints close_band(OpenCLRuntime& rt, FinePoints& points, std::vector<C
 /// A smoothed mesh gets area-weighted normals for NormalMode::Gradient: its vertices left the field's zero set.
 bool gradient_normals_wanted(const Params& p) { return p.normals == NormalMode::Gradient && !p.smooth; }
 
+/// Whether a stage after the mesh reads the particles on the host: gradient normals, smoothing
+/// weights, attributes. (Area normals read only the mesh.)
+bool reads_particles_later(const Params& p, bool attributes) { return gradient_normals_wanted(p) || p.smooth || attributes; }
+
 /// The frame's one particle grid (core/particle_grid.hpp) for the stages after the mesh that read
 /// the particles (smoothing weights, gradient normals, attributes): built by the first of them,
 /// timed with it, shared by the others.
@@ -681,10 +685,10 @@ Mesh Reconstructor::reconstruct(const DevicePositions& d, const Params& params, 
             for (_cl_event* e : d.wait_for) events.emplace_back(e, true);
             rt.queue().enqueueBarrierWithWaitList(&events);
         }
-        if (params.normals != NormalMode::Gradient && !params.smooth) {
+        if (!reads_particles_later(params, false)) {
             impl_->device_in = std::move(in);
         } else {
-            host = read_device_positions(rt, in);  // gradient normals and smoothing weights read the particles on the host
+            host = read_device_positions(rt, in);
         }
     } catch (const cl::Error& e) {
         rt.recover();
@@ -722,8 +726,7 @@ Mesh Reconstructor::reconstruct(std::vector<float>&& xyz, const Params& params, 
         s.particles_outside_box = all - kept;
         return m;
     }
-    const bool read_later = params.normals != NormalMode::None || !attributes.empty() || params.smooth;
-    impl_->handed_over = read_later ? nullptr : &owned;
+    impl_->handed_over = reads_particles_later(params, !attributes.empty()) ? nullptr : &owned;
     struct Forget {  // whatever happens, the Impl does not keep a pointer to this frame's vector
         Impl& impl;
         ~Forget() { impl.handed_over = nullptr; }
