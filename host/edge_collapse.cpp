@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/run_beside.hpp"
+
 namespace trilevel {
 
 namespace {
@@ -53,6 +55,12 @@ std::vector<std::uint32_t> every_vertex(std::size_t n) {
 
 EdgeCollapser::EdgeCollapser(Mesh& mesh, const std::vector<std::uint32_t>& vertices)
     : m_(mesh), list_(mesh.vertex_count(), -1), dead_tri_(mesh.triangle_count(), 0), dead_vertex_(mesh.vertex_count(), 0) {
+    if (vertices.empty()) return;
+    // The crossing check's index (which every collapse queries) is made beside the lists.
+    run_beside([&] { grid_.emplace(m_, dead_tri_); }, [&] { list_triangles(vertices); });
+}
+
+void EdgeCollapser::list_triangles(const std::vector<std::uint32_t>& vertices) {
     for (std::uint32_t v : vertices)
         if (list_[v] < 0) {
             list_[v] = std::int32_t(tris_.size());
@@ -61,12 +69,12 @@ EdgeCollapser::EdgeCollapser(Mesh& mesh, const std::vector<std::uint32_t>& verti
     // Counted first, so that each list is allocated once (with room for the triangles a few
     // collapses bring).
     std::vector<std::uint32_t> count(tris_.size(), 0);
-    for (std::uint32_t c : mesh.triangles)
+    for (std::uint32_t c : m_.triangles)
         if (const std::int32_t l = list_[c]; l >= 0) ++count[std::size_t(l)];
     for (std::size_t l = 0; l < tris_.size(); ++l) tris_[l].reserve(count[l] + 4);
-    for (std::uint32_t t = 0; t < mesh.triangle_count(); ++t)
+    for (std::uint32_t t = 0; t < m_.triangle_count(); ++t)
         for (int k = 0; k < 3; ++k)
-            if (const std::int32_t l = list_[mesh.triangles[3 * std::size_t(t) + k]]; l >= 0) tris_[l].push_back(t);
+            if (const std::int32_t l = list_[m_.triangles[3 * std::size_t(t) + k]]; l >= 0) tris_[l].push_back(t);
 }
 
 std::vector<std::uint32_t>& EdgeCollapser::alive_triangles(std::uint32_t v) {
@@ -95,7 +103,6 @@ void EdgeCollapser::prepare_parallel(double growth) {
 void EdgeCollapser::adopt(Worker& w) { grid_->adopt(w.relisted); }
 
 bool EdgeCollapser::makes_crossing(std::uint32_t v, std::uint32_t a, const std::vector<std::uint32_t>& moved, Worker& w) {
-    if (!grid_) grid_.emplace(m_, dead_tri_);
     auto& moved_geometry = w.moved;
     auto& near = w.near;
     // The moved triangles before and after, and the box around them all after the move.
@@ -185,7 +192,7 @@ EdgeCollapser::Outcome EdgeCollapser::collapse(std::uint32_t v, std::uint32_t a,
             if (c[k] == v) c[k] = a;
         ta.push_back(t);
         const glm::dvec3 p[3] = {position(c[0]), position(c[1]), position(c[2])};
-        if (grid_) grid_->relist(t, corner_min(p), corner_max(p), w.parallel ? &w.relisted : nullptr);
+        grid_->relist(t, corner_min(p), corner_max(p), w.parallel ? &w.relisted : nullptr);
     }
     tv.clear();
     dead_vertex_[v] = 1;

@@ -86,8 +86,9 @@ private:
     std::atomic<std::size_t> collapses_{0};  // made so far (Workers count theirs at once)
     Worker main_;                        // collapse()'s, single-threaded
     double bound_ = 0.0;                 // a Worker's moved triangles' largest extent
-    std::optional<TriangleGrid> grid_;  // the crossing check's, made on its first query
+    std::optional<TriangleGrid> grid_;  // the crossing check's, made with the lists
 
+    void list_triangles(const std::vector<std::uint32_t>& vertices);  // tris_ of `vertices`
     std::uint32_t* corners(std::uint32_t t) { return m_.triangles.data() + 3 * std::size_t(t); }
     std::vector<std::uint32_t>& alive_triangles(std::uint32_t v);
     bool flips(std::uint32_t t, std::uint32_t v, glm::dvec3 to);
