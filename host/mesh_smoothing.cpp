@@ -10,6 +10,7 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
+#include "core/run_beside.hpp"
 #include "mesh_topology.hpp"
 
 namespace trilevel {
@@ -217,16 +218,23 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
     const std::size_t nv = mesh.vertex_count(), nt = mesh.triangle_count();
     if (weights.size() != nv) throw Error("smoothing: " + std::to_string(weights.size()) + " weights for " + std::to_string(nv) + " vertices");
     if (nv == 0 || settings.iterations <= 0) return report;
-    const Rows tri = vertex_triangles(mesh), nbr = vertex_neighbours(mesh, tri);
-    const MeshComponents comp = mesh_components(mesh);
-    const std::vector<double> volume0 = component_volumes(mesh, comp);
-    for (double v : volume0) report.volume_before += v;
-    std::vector<float> w = weights;  // small components keep their vertices
-    for (std::size_t v = 0; v < nv; ++v)
-        if (std::fabs(volume0[comp.of_vertex[v]]) < settings.min_volume) w[v] = 0.0f;
-
+    // The components and their volumes (serial sweeps) beside the triangle rows (serial too).
+    Rows tri;
+    MeshComponents comp;
+    std::vector<double> volume0;
+    run_beside(
+        [&] {
+            comp = mesh_components(mesh);
+            volume0 = component_volumes(mesh, comp);
+        },
+        [&] { tri = vertex_triangles(mesh); });
+    const Rows nbr = vertex_neighbours(mesh, tri);
+    std::vector<float> w(nv);  // small components keep their vertices
     std::vector<glm::dvec3> p(nv), q(nv);
-    for (std::size_t v = 0; v < nv; ++v) p[v] = {mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]};
+    for_vertices(nv, [&](std::size_t v) {
+        w[v] = std::fabs(volume0[comp.of_vertex[v]]) < settings.min_volume ? 0.0f : weights[v];
+        p[v] = {mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]};
+    });
     const std::uint32_t* corners = mesh.triangles.data();
     std::vector<glm::dvec3> n0(nt);  // orientation before smoothing: no triangle may turn against it
     tbb::parallel_for(std::size_t(0), nt, [&](std::size_t t) { n0[t] = face_cross(p, corners + 3 * t); });
@@ -457,9 +465,9 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
         }
         moving = nullptr;
     }
-    for (std::size_t v = 0; v < nv; ++v)
+    for_vertices(nv, [&](std::size_t v) {
         for (int a = 0; a < 3; ++a) mesh.positions[3 * v + a] = float(p[v][a]);
-    for (double v : component_volumes(mesh, comp)) report.volume_after += v;
+    });
     return report;
 }
 

@@ -50,9 +50,9 @@ struct SmoothingSettings {
     /// update_passes moves (see mesh_smoothing.cpp); either 0: none. This removes the bumps several
     /// particle spacings wide that the Laplacian steps leave, without shrinking the body
     /// (bench/RESULTS-smoothing.md).
-    int normal_passes = 30;
+    int normal_passes = 20;
     int update_passes = 15;  ///< moves of the vertices towards the averaged normals
-    int tangential_passes = 2;  ///< tangential Laplacian steps after the update (triangle shapes)
+    int tangential_passes = 1;  ///< tangential Laplacian steps after the update (triangle shapes)
     bool keep_volume = true;   ///< restore each component's volume along the normals at the end
     /// Components enclosing less than this volume (world units) are left as they are: a droplet of
     /// a few particles has no particle bumps to iron out, and Laplacian steps would shrink it to
@@ -65,7 +65,6 @@ inline double smooth_min_volume(double r) { return 64.0 * 8.0 * r * r * r; }
 
 struct SmoothingReport {
     std::size_t reverted_moves = 0;  ///< vertex moves taken back because a triangle would turn over
-    double volume_before = 0, volume_after = 0;  ///< of the whole mesh, world units
 };
 
 /// Smooths `mesh` in place with per-vertex `weights` (smoothing_weights; one per vertex).
