@@ -88,8 +88,10 @@ struct Rows {
     std::vector<std::uint32_t> offset, item;
 };
 
-/// Triangles around each vertex, ascending.
-Rows vertex_triangles(const Mesh& mesh) {
+/// Triangles around each vertex, ascending; `others` receives, beside each item, the triangle's two
+/// other corners (the one after the vertex, then the one before it): item k's at 2k and 2k + 1.
+/// One serial sweep over the triangles, so that vertex_neighbours reads its rows in order.
+Rows vertex_triangles(const Mesh& mesh, std::vector<std::uint32_t>& others) {
     const std::size_t nv = mesh.vertex_count();
     const auto& t = mesh.triangles;
     Rows g;
@@ -98,39 +100,45 @@ Rows vertex_triangles(const Mesh& mesh) {
     for (std::size_t v = 0; v < nv; ++v) g.offset[v + 1] += g.offset[v];
     std::vector<std::uint32_t> fill(g.offset.begin(), g.offset.end() - 1);
     g.item.resize(t.size());
-    for (std::size_t i = 0; i < t.size(); ++i) g.item[fill[t[i]]++] = std::uint32_t(i / 3);
+    others.resize(2 * t.size());
+    for (std::size_t i = 0; i < t.size(); i += 3)
+        for (std::size_t k = 0; k < 3; ++k) {
+            const std::uint32_t slot = fill[t[i + k]]++;
+            g.item[slot] = std::uint32_t(i / 3);
+            others[2 * std::size_t(slot)] = t[i + (k + 1) % 3];
+            others[2 * std::size_t(slot) + 1] = t[i + (k + 2) % 3];
+        }
     return g;
 }
 
-/// Neighbours of each vertex across the triangles' edges, ascending, each once: the other corners
-/// of its triangles (`tri`: vertex_triangles), row by row in parallel. Around a vertex of a closed
-/// oriented mesh the corners after it are its neighbours, each once, and those before it the same
-/// again: they are only looked up, and the short row sorted.
-Rows vertex_neighbours(const Mesh& mesh, const Rows& tri) {
-    const std::size_t nv = mesh.vertex_count();
-    const std::uint32_t* t = mesh.triangles.data();
-    std::vector<std::uint32_t> all(2 * tri.item.size()), kept(nv);  // row v at 2 tri.offset[v]
+/// Neighbours of each vertex across the triangles' edges, ascending, each once, row by row in
+/// parallel, from the triangles' other corners (`others` of vertex_triangles, sorted in place).
+/// Around a vertex of a closed oriented mesh each neighbour is the corner after it in one triangle
+/// and the one before it in another: the row's 2k corners are sorted (a short insertion sort)
+/// and taken once.
+Rows vertex_neighbours(const Rows& tri, std::vector<std::uint32_t>& others) {
+    const std::size_t nv = tri.offset.size() - 1;
+    std::vector<std::uint32_t> kept(nv);
     for_vertices(nv, [&](std::size_t v) {
-        std::uint32_t* out = all.data() + 2 * std::size_t(tri.offset[v]);
-        std::uint32_t n = 0;
-        auto add = [&](std::uint32_t u) {
-            if (u != v && std::find(out, out + n, u) == out + n) out[n++] = u;
-        };
-        for (int after : {1, 2})
-            for (std::uint32_t k = tri.offset[v]; k < tri.offset[v + 1]; ++k) {
-                const std::uint32_t* c = t + 3 * std::size_t(tri.item[k]);
-                const int at = c[0] == v ? 0 : c[1] == v ? 1 : 2;
-                add(c[(at + after) % 3]);
-            }
-        std::sort(out, out + n);
-        kept[v] = n;
+        std::uint32_t* row = others.data() + 2 * std::size_t(tri.offset[v]);
+        const std::uint32_t n = 2 * (tri.offset[v + 1] - tri.offset[v]);
+        for (std::uint32_t j = 1; j < n; ++j) {
+            const std::uint32_t u = row[j];
+            std::uint32_t i = j;
+            for (; i > 0 && row[i - 1] > u; --i) row[i] = row[i - 1];
+            row[i] = u;
+        }
+        std::uint32_t m = 0;
+        for (std::uint32_t i = 0; i < n; ++i)
+            if (row[i] != v && (m == 0 || row[m - 1] != row[i])) row[m++] = row[i];
+        kept[v] = m;
     });
     Rows g;
     g.offset.assign(nv + 1, 0);
     for (std::size_t v = 0; v < nv; ++v) g.offset[v + 1] = g.offset[v] + kept[v];
     g.item.resize(g.offset[nv]);
     for_vertices(nv, [&](std::size_t v) {
-        std::copy_n(all.begin() + 2 * std::ptrdiff_t(tri.offset[v]), kept[v], g.item.begin() + g.offset[v]);
+        std::copy_n(others.begin() + 2 * std::ptrdiff_t(tri.offset[v]), kept[v], g.item.begin() + g.offset[v]);
     });
     return g;
 }
@@ -220,6 +228,7 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
     if (nv == 0 || settings.iterations <= 0) return report;
     // The components and their volumes (serial sweeps) beside the triangle rows (serial too).
     Rows tri;
+    std::vector<std::uint32_t> others;
     MeshComponents comp;
     std::vector<double> volume0;
     run_beside(
@@ -227,8 +236,9 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
             comp = mesh_components(mesh);
             volume0 = component_volumes(mesh, comp);
         },
-        [&] { tri = vertex_triangles(mesh); });
-    const Rows nbr = vertex_neighbours(mesh, tri);
+        [&] { tri = vertex_triangles(mesh, others); });
+    const Rows nbr = vertex_neighbours(tri, others);
+    std::vector<std::uint32_t>().swap(others);
     std::vector<float> w(nv);  // small components keep their vertices
     std::vector<glm::dvec3> p(nv), q(nv);
     for_vertices(nv, [&](std::size_t v) {
