@@ -305,10 +305,27 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
         accept();
     };
     std::vector<glm::dvec3> normal(nv, glm::dvec3(0.0));
+    // Each triangle's cross product, taken once per triangle (a vertex's sweep would take each
+    // three times, gathering its corners at random), of the triangles in the components where
+    // `only` is set (all: nullptr); `also(t)` runs after each.
+    std::vector<glm::dvec3> cross(nt);
+    auto take_crosses = [&](const std::uint8_t* only, auto&& also) {
+        tbb::parallel_for(std::size_t(0), nt, [&](std::size_t t) {
+            if (only && !only[comp.of_vertex[corners[3 * t]]]) return;
+            cross[t] = face_cross(p, corners + 3 * t);
+            also(t);
+        });
+    };
+    // The sum of v's triangles' cross products, in row order.
+    auto cross_sum = [&](std::size_t v) {
+        glm::dvec3 n(0.0);
+        for (std::uint32_t k = tri.offset[v]; k < tri.offset[v + 1]; ++k) n += cross[tri.item[k]];
+        return n;
+    };
     auto vertex_normals = [&] {
+        take_crosses(nullptr, [](std::size_t) {});
         for_vertices(nv, [&](std::size_t v) {
-            glm::dvec3 n(0.0);
-            for (std::uint32_t k = tri.offset[v]; k < tri.offset[v + 1]; ++k) n += face_cross(p, corners + 3 * tri.item[k]);
+            const glm::dvec3 n = cross_sum(v);
             const double l = glm::length(n);
             normal[v] = l > 0 ? n / l : glm::dvec3(0.0);
         });
@@ -424,8 +441,8 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
         // products) / 6, whose direction n_v is: the slope is the sum of their lengths / 6.
         // A step is bounded by a quarter of the component's volume over its area (a twelfth of a
         // ball's radius), so that a tiny component shrunk by the steps is regrown gradually.
-        // One sweep over the vertices per step takes the volume terms (each triangle's at its first
-        // corner, summed per component in triangle order) and the vertex normals for the move. A
+        // One sweep over the triangles per step takes their cross products and volume terms
+        // (summed per component in triangle order), one over the vertices their normals. A
         // component stops once its volume is within 1e-9 of the one before smoothing (under the
         // rounding of the float positions written at the end, about 1e-7): later steps sweep only
         // the components still moving, a cavity shrunk by the Laplacian steps, say.
@@ -435,15 +452,10 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
         moving = active.data();
         for (int pass = 0; pass < 8; ++pass) {
             std::vector<double> volume(comp.count, 0.0), slope(comp.count, 0.0);
+            take_crosses(active.data(), [&](std::size_t t) { term[t] = glm::dot(p[corners[3 * t]], cross[t]) / 6.0; });
             for_vertices(nv, [&](std::size_t v) {
                 if (!active[comp.of_vertex[v]]) return;
-                glm::dvec3 n(0.0);
-                for (std::uint32_t k = tri.offset[v]; k < tri.offset[v + 1]; ++k) {
-                    const std::uint32_t* c = corners + 3 * std::size_t(tri.item[k]);
-                    const glm::dvec3 cross = face_cross(p, c);
-                    if (c[0] == v) term[tri.item[k]] = glm::dot(p[v], cross) / 6.0;
-                    n += cross;
-                }
+                const glm::dvec3 n = cross_sum(v);
                 gradient[v] = glm::length(n) / 6.0;
                 normal[v] = gradient[v] > 0 ? n / (6.0 * gradient[v]) : glm::dvec3(0.0);
             });
