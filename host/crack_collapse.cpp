@@ -8,15 +8,10 @@
 namespace trilevel {
 
 std::size_t collapse_crack_runs(Mesh& mesh, const CrackRuns& runs, std::vector<std::uint32_t>* kept) {
-    if (runs.empty()) {
-        if (kept) *kept = every_vertex(mesh.vertex_count());
-        return 0;
-    }
     std::vector<std::uint32_t> vertices;  // every vertex of every run
     for (std::size_t i = 0; i < runs.size(); i += runs[i] + 1)
         vertices.insert(vertices.end(), runs.begin() + std::ptrdiff_t(i) + 1, runs.begin() + std::ptrdiff_t(i + runs[i]) + 1);
     EdgeCollapser c(mesh, vertices);
-    std::size_t collapsed = 0;
     for (std::size_t i = 0; i < runs.size(); i += runs[i] + 1) {
         const std::uint32_t a = runs[i + 1], b = runs[i + runs[i]];
         // The inner chain is runs[front .. back); from the ends inwards, each step merges an end
@@ -28,10 +23,10 @@ std::size_t collapse_crack_runs(Mesh& mesh, const CrackRuns& runs, std::vector<s
             const bool front_first = glm::distance(c.position(runs[front]), c.position(a)) <=
                                      glm::distance(c.position(runs[back - 1]), c.position(b));
             if (!(front_first ? merge_front() || merge_back() : merge_back() || merge_front())) break;
-            ++collapsed;
         }
     }
-    std::vector<std::uint32_t> left = c.compact();
+    const std::size_t collapsed = c.collapses();
+    std::vector<std::uint32_t> left = c.compact();  // every vertex where none was collapsed
     if (kept) *kept = std::move(left);
     return collapsed;
 }

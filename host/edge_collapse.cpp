@@ -95,7 +95,6 @@ bool EdgeCollapser::flips(std::uint32_t t, std::uint32_t v, glm::dvec3 to) {
 }
 
 void EdgeCollapser::prepare_parallel(double growth) {
-    if (!grid_) grid_.emplace(m_, dead_tri_);
     bound_ = growth * grid_->reach();
     grid_->widen_reach(bound_);
 }

@@ -56,8 +56,8 @@ public:
     // Worker's collapse that would make a triangle larger is deferred instead.
     struct Worker;
     enum class Outcome { Collapsed, Refused, Deferred };
-    /// The crossing check's index, made now (the regions' collapses must not make it), its
-    /// queries widened to triangles `growth` times the largest now (moved triangles grow a little).
+    /// Widens the crossing check's queries to triangles `growth` times the largest now (moved
+    /// triangles grow a little). Needs listed vertices (the index is made with their lists).
     void prepare_parallel(double growth);
     /// The index's cell side and the triangles' bound, whichever is larger; prepare_parallel() first.
     double interaction_reach() const { return std::max(grid_->cell_side(), bound_); }
