@@ -36,10 +36,10 @@ void for_vertices(std::size_t n, F&& f) {
 /// was shared with the vertex stages: it keeps their bits.
 class SumOrder {
 public:
-    SumOrder(const Mesh& mesh, std::size_t count, double R) {
+    SumOrder(const std::vector<float>& positions, std::size_t count, double R) {
         glm::dvec3 lo(INFINITY), hi(-INFINITY);
-        for (std::size_t i = 0; i < mesh.positions.size(); i += 3) {
-            const glm::dvec3 p(mesh.positions[i], mesh.positions[i + 1], mesh.positions[i + 2]);
+        for (std::size_t i = 0; i + 2 < positions.size(); i += 3) {
+            const glm::dvec3 p(positions[i], positions[i + 1], positions[i + 2]);
             lo = glm::min(lo, p);
             hi = glm::max(hi, p);
         }
@@ -149,11 +149,11 @@ glm::dvec3 face_cross(const std::vector<glm::dvec3>& p, const std::uint32_t* c) 
 
 }  // namespace
 
-std::vector<float> smoothing_weights(const Mesh& mesh, const ParticleGrid& grid, float r, float R) {
-    const std::size_t nv = mesh.vertex_count();
+std::vector<float> smoothing_weights(const std::vector<float>& positions, const ParticleGrid& grid, float r, float R) {
+    const std::size_t nv = positions.size() / 3;
     std::vector<float> w(nv, 0.0f);
     if (nv == 0 || grid.size() == 0) return w;
-    const SumOrder order(mesh, grid.size(), R);
+    const SumOrder order(positions, grid.size(), R);
     const double R2 = double(R) * R;
     // The kernel sum at a vertex on the flat surface of particles at rest spacing 2r: half the
     // interior's, rho * 4 pi R^3 * 16/315 (the integral of (1 - d^2/R^2)^3 over the ball), less
@@ -177,7 +177,7 @@ std::vector<float> smoothing_weights(const Mesh& mesh, const ParticleGrid& grid,
     if (ramp(full * below) != 1.0) full = INFINITY;  // never seen: then every sum runs to its end
     tbb::enumerable_thread_specific<std::vector<Term>> scratch;
     for_vertices(nv, [&](std::size_t v) {
-        const glm::vec3 pf(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]);
+        const glm::vec3 pf(positions[3 * v], positions[3 * v + 1], positions[3 * v + 2]);
         const glm::dvec3 p(pf);
         const glm::ivec3 c = order.of_vertex(p);
         // The terms (1 - d^2/R^2)^3 >= 0 summed in the grid's order (rows nearest first: the

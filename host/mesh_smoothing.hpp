@@ -30,9 +30,10 @@ namespace trilevel {
 /// get 0 and stay put, those of thin jets and sheets a small weight; the bulk's surface gets 1. Löschner et al. weight by the particles' neighbour
 /// counts, which needs a second neighbour search per particle: measured on the x64 dam break,
 /// that search cost as much as the reconstruction's scalar field, while this one is one search
-/// per vertex. A vertex without particles within R gets 0. `grid`: the frame's particles (any cell
-/// edge; the reconstruction shares the vertex stages' grid), world units.
-std::vector<float> smoothing_weights(const Mesh& mesh, const ParticleGrid& grid, float r, float R);
+/// per vertex. A vertex without particles within R gets 0. `positions`: the vertices as x, y, z
+/// (Mesh::positions; the weights read nothing else of the mesh). `grid`: the frame's particles
+/// (any cell edge; the reconstruction shares the vertex stages' grid), world units.
+std::vector<float> smoothing_weights(const std::vector<float>& positions, const ParticleGrid& grid, float r, float R);
 
 struct SmoothingSettings {
     int iterations = 0;        ///< Laplacian steps (with mu != 0: lambda/mu pairs); 0: no smoothing

@@ -315,7 +315,7 @@ CrackRuns global_runs(const std::vector<ChunkOut>& chunks, const std::vector<std
 
 Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame& lattice_frame, const FinePointMap& field,
                        CrackClosing closing, std::size_t* collapsed,
-                       const std::function<void(std::vector<float>&&)>& beside_collapse, std::vector<std::uint32_t>* kept) {
+                       const std::function<void(const std::vector<float>&)>& beside_collapse, std::vector<std::uint32_t>* kept) {
     if (lattice_frame.coarse_steps < 2 || lattice_frame.coarse_steps % 2)
         throw Error("triangulation: coarse_steps must be even");
     // Phases 1-2 as a pipeline: chunks are meshed in parallel and numbered in order meanwhile.
@@ -366,8 +366,8 @@ Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame&
     std::size_t merged = 0;
     auto collapse = [&] { merged = collapse_crack_runs(mesh, runs, kept); };
     if (beside_collapse) {
-        std::vector<float> positions = mesh.positions;  // a copy: the collapse's compaction moves them
-        run_beside([&] { beside_collapse(std::move(positions)); }, collapse);
+        const std::vector<float> positions = mesh.positions;  // a copy: the collapse's compaction moves them
+        run_beside([&] { beside_collapse(positions); }, collapse);
     } else {
         collapse();
     }

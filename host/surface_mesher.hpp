@@ -27,7 +27,7 @@ namespace trilevel {
 Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame& lattice_frame,
                        const FinePointMap& field, CrackClosing closing = CrackClosing::Collapse,
                        std::size_t* collapsed = nullptr,
-                       const std::function<void(std::vector<float>&&)>& beside_collapse = {},
+                       const std::function<void(const std::vector<float>&)>& beside_collapse = {},
                        std::vector<std::uint32_t>* kept = nullptr);
 
 }  // namespace trilevel

@@ -281,10 +281,10 @@ private:
     std::optional<ParticleGrid> grid_;
 };
 
-/// The smoothing weights of `mesh`'s vertices (host/mesh_smoothing.hpp) from the frame's grid,
-/// which is released after them unless `keep_grid` (the vertex stages read it later).
-std::vector<float> frame_weights(const Mesh& mesh, FrameGrid& grid, bool keep_grid, const Params& p) {
-    std::vector<float> w = smoothing_weights(mesh, grid.get(), p.particle_radius, p.kernel_radius * p.particle_radius);
+/// The smoothing weights of the vertices at `positions` (host/mesh_smoothing.hpp) from the frame's
+/// grid, which is released after them unless `keep_grid` (the vertex stages read it later).
+std::vector<float> frame_weights(const std::vector<float>& positions, FrameGrid& grid, bool keep_grid, const Params& p) {
+    std::vector<float> w = smoothing_weights(positions, grid.get(), p.particle_radius, p.kernel_radius * p.particle_radius);
     if (!keep_grid) grid.release();  // freed before the smoothing's own arrays
     return w;
 }
@@ -311,8 +311,7 @@ void postprocess(Mesh& mesh, FrameGrid& grid, bool keep_grid, const Params& p, S
             std::vector<std::uint32_t> kept;
             auto cleanup = [&] { s.sliver_edges_collapsed = collapse_slivers(mesh, &kept); };
             if (early_weights.size() != mesh.vertex_count()) {
-                Mesh before;
-                before.positions = mesh.positions;
+                const std::vector<float> before = mesh.positions;  // a copy: the cleanup compacts them
                 run_beside([&] { early_weights = frame_weights(before, grid, keep_grid, p); }, cleanup);
             } else {
                 cleanup();
@@ -396,7 +395,7 @@ struct Reconstructor::Impl {
     /// particles (smoothing weights) and whose mesh comes from one unscaled lattice: called with
     /// the vertex positions (world units) before the crack collapse, beside it (run_stages(),
     /// triangulate_cells()); crack_kept then holds the old index of each vertex the collapse left.
-    std::function<void(std::vector<float>&&)> beside_crack_collapse;
+    std::function<void(const std::vector<float>&)> beside_crack_collapse;
     std::vector<std::uint32_t> crack_kept;
 
     // A frame's mesh, before post-processing, in three steps, each calling the next:
@@ -764,10 +763,8 @@ Mesh Reconstructor::reconstruct(const float* xyz, std::size_t count, const Param
             }
         } beside{*impl_};
         if (params.smooth && xyz && length_scale_exponent(params.particle_radius) == 0)
-            impl_->beside_crack_collapse = [&](std::vector<float>&& positions) {
-                Mesh before;
-                before.positions = std::move(positions);
-                early_weights = frame_weights(before, grid, keep_grid, params);
+            impl_->beside_crack_collapse = [&](const std::vector<float>& positions) {
+                early_weights = frame_weights(positions, grid, keep_grid, params);
             };
         Mesh m = impl_->mesh_in_float_range(xyz, count, params, s);
         rt.end_frame();  // the frame's buffers stay pooled for the next one (trimmed when oversized)

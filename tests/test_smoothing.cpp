@@ -105,7 +105,7 @@ TEST_CASE("sliver cleanup and smoothing keep random meshes closed, their compone
         SmoothingSettings settings;
         settings.iterations = kDefaultSmoothIterations;
         settings.min_volume = smooth_min_volume(r);
-        smooth_mesh(m, smoothing_weights(m, vertex_particle_grid(xyz.data(), xyz.size() / 3, r, 4 * r), r, 4 * r), settings);
+        smooth_mesh(m, smoothing_weights(m.positions, vertex_particle_grid(xyz.data(), xyz.size() / 3, r, 4 * r), r, 4 * r), settings);
         REQUIRE(m.triangles == before.triangles);  // positions only
         REQUIRE(is_closed_and_oriented(m));
         CHECK(sorted_euler(m) == chi0);
@@ -276,11 +276,11 @@ TEST_CASE("smoothing weights do not depend on the particle grid's cells or layou
         Params p = params(r);
         p.sliver_cleanup = true;
         const Mesh m = reconstructor().reconstruct(xyz.data(), n, p);
-        const std::vector<float> w = smoothing_weights(m, vertex_particle_grid(xyz.data(), n, r, R), r, R);
+        const std::vector<float> w = smoothing_weights(m.positions, vertex_particle_grid(xyz.data(), n, r, R), r, R);
         REQUIRE(w.size() == m.vertex_count());
         for (float cell : {0.5f * R, 1.37f * R, 3.0f * R})
             for (std::size_t dense_limit : {std::size_t(0), std::size_t(1)}) {
-                const std::vector<float> other = smoothing_weights(m, ParticleGrid(xyz.data(), n, cell, dense_limit), r, R);
+                const std::vector<float> other = smoothing_weights(m.positions, ParticleGrid(xyz.data(), n, cell, dense_limit), r, R);
                 REQUIRE(std::memcmp(other.data(), w.data(), w.size() * sizeof(float)) == 0);
             }
         // Against the brute-force kernel sum (any order: to rounding) and the documented ramp.
@@ -326,7 +326,7 @@ TEST_CASE("smoothing weights taken beside the crack collapse give the mesh of th
             Params raw_params = p;
             raw_params.smooth = false;
             const Mesh raw = reconstructor().reconstruct(s.positions.data(), s.size(), raw_params);
-            for (float w : smoothing_weights(raw, vertex_particle_grid(s.positions.data(), s.size(), r, 4 * r), r, 4 * r))
+            for (float w : smoothing_weights(raw.positions, vertex_particle_grid(s.positions.data(), s.size(), r, 4 * r), r, 4 * r))
                 partial += w > 0.0f && w < 1.0f;
         }
         cracks += a.crack_vertices_collapsed;
