@@ -1,29 +1,104 @@
 // Crack closing by collapse (docs/design.md §7); see crack_collapse.hpp.
 #include "crack_collapse.hpp"
 
+#include <algorithm>
+#include <cmath>
+
 #include <glm/glm.hpp>
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
 
 #include "edge_collapse.hpp"
 
 namespace trilevel {
 
+namespace {
+
+/// Where one run stands: its inner chain is runs[front .. back).
+struct RunState {
+    std::size_t first = 0, front = 0, back = 0;
+};
+
+/// Collapses a run's inner vertices from the ends inwards, each into the run end beside it, the
+/// nearer pair first (the smaller move of the surface), until none is left or neither end can
+/// go. Returns false where a collapse had to wait for the serial pass (a region's worker only):
+/// the run stops there, and `s` says where to go on.
+bool collapse_run(EdgeCollapser& c, const CrackRuns& runs, RunState& s, EdgeCollapser::Worker& w) {
+    using Outcome = EdgeCollapser::Outcome;
+    const std::uint32_t a = runs[s.first + 1], b = runs[s.first + runs[s.first]];
+    while (s.front < s.back) {
+        const bool front_first = glm::distance(c.position(runs[s.front]), c.position(a)) <=
+                                 glm::distance(c.position(runs[s.back - 1]), c.position(b));
+        bool merged = false;
+        for (int k = 0; k < 2 && !merged; ++k) {
+            const bool front = (k == 0) == front_first;
+            const Outcome o = front ? c.collapse(runs[s.front], a, w) : c.collapse(runs[s.back - 1], b, w);
+            if (o == Outcome::Deferred) return false;
+            if (o == Outcome::Collapsed) {
+                merged = true;
+                front ? ++s.front : --s.back;
+            }
+        }
+        if (!merged) break;
+    }
+    return true;
+}
+
+}  // namespace
+
 std::size_t collapse_crack_runs(Mesh& mesh, const CrackRuns& runs, std::vector<std::uint32_t>* kept) {
     std::vector<std::uint32_t> vertices;  // every vertex of every run
-    for (std::size_t i = 0; i < runs.size(); i += runs[i] + 1)
-        vertices.insert(vertices.end(), runs.begin() + std::ptrdiff_t(i) + 1, runs.begin() + std::ptrdiff_t(i + runs[i]) + 1);
-    EdgeCollapser c(mesh, vertices);
+    std::vector<RunState> states;
     for (std::size_t i = 0; i < runs.size(); i += runs[i] + 1) {
-        const std::uint32_t a = runs[i + 1], b = runs[i + runs[i]];
-        // The inner chain is runs[front .. back); from the ends inwards, each step merges an end
-        // vertex of it into the run end beside it, the nearer pair first (the smaller move of the surface).
-        std::size_t front = i + 2, back = i + runs[i];
-        auto merge_front = [&] { return c.collapse(runs[front], a) && (++front, true); };
-        auto merge_back = [&] { return c.collapse(runs[back - 1], b) && (--back, true); };
-        while (front < back) {
-            const bool front_first = glm::distance(c.position(runs[front]), c.position(a)) <=
-                                     glm::distance(c.position(runs[back - 1]), c.position(b));
-            if (!(front_first ? merge_front() || merge_back() : merge_back() || merge_front())) break;
+        vertices.insert(vertices.end(), runs.begin() + std::ptrdiff_t(i) + 1, runs.begin() + std::ptrdiff_t(i + runs[i]) + 1);
+        states.push_back({i, i + 2, i + runs[i]});
+    }
+    EdgeCollapser c(mesh, vertices);
+    if (!states.empty()) {
+        // Runs on all threads, in slabs across the longest axis, as the sliver cleanup does
+        // (sliver_cleanup.cpp): a collapse reads within 3 and writes within 2 interaction reaches
+        // of its vertex (edge_collapse.hpp), and a run's vertices lie within `extent` of its
+        // first end, so two runs in slabs of one parity a slab apart (2 extent + 6 reaches)
+        // never meet. Even slabs first, then odd; in a slab the runs in their order; a run whose
+        // collapse would grow a triangle beyond the bound goes on in the serial pass, in run
+        // order. The result does not depend on the threads.
+        c.prepare_parallel(1.5);
+        glm::dvec3 lo = c.position(runs[1]), hi = lo;
+        for (std::uint32_t v : vertices) {
+            lo = glm::min(lo, c.position(v));
+            hi = glm::max(hi, c.position(v));
         }
+        const glm::dvec3 size = hi - lo;
+        const int axis = size.x >= size.y && size.x >= size.z ? 0 : size.y >= size.z ? 1 : 2;
+        double extent = 0.0;
+        for (const RunState& s : states)
+            for (std::size_t k = 1; k <= runs[s.first]; ++k)
+                extent = std::max(extent, std::abs(c.position(runs[s.first + k])[axis] - c.position(runs[s.first + 1])[axis]));
+        const double width = 2.0 * extent + 6.0 * c.interaction_reach();
+        const std::size_t slabs = std::size_t(std::min(std::floor(size[axis] / width), 1e6)) + 1;
+        std::vector<std::vector<std::uint32_t>> in_slab(slabs);  // run numbers, ascending
+        for (std::uint32_t r = 0; r < states.size(); ++r) {
+            const double x = c.position(runs[states[r].first + 1])[axis] - lo[axis];
+            in_slab[std::min(slabs - 1, std::size_t(x / width))].push_back(r);
+        }
+        std::vector<std::uint8_t> deferred(states.size(), 0);
+        tbb::enumerable_thread_specific<EdgeCollapser::Worker> workers([] {
+            EdgeCollapser::Worker w;
+            w.parallel = true;
+            return w;
+        });
+        for (std::size_t parity = 0; parity < 2; ++parity) {
+            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, (slabs + 1 - parity) / 2, 1), [&](const auto& range) {
+                EdgeCollapser::Worker& w = workers.local();
+                for (std::size_t k = range.begin(); k != range.end(); ++k)
+                    for (std::uint32_t r : in_slab[2 * k + parity]) deferred[r] = !collapse_run(c, runs, states[r], w);
+            });
+            for (EdgeCollapser::Worker& w : workers) c.adopt(w);
+        }
+        EdgeCollapser::Worker serial;
+        for (std::uint32_t r = 0; r < states.size(); ++r)
+            if (deferred[r]) collapse_run(c, runs, states[r], serial);
     }
     const std::size_t collapsed = c.collapses();
     std::vector<std::uint32_t> left = c.compact();  // every vertex where none was collapsed
