@@ -2,7 +2,11 @@
 #include "edge_collapse.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include "core/run_beside.hpp"
 
@@ -66,15 +70,27 @@ void EdgeCollapser::list_triangles(const std::vector<std::uint32_t>& vertices) {
             list_[v] = std::int32_t(tris_.size());
             tris_.emplace_back();
         }
-    // Counted first, so that each list is allocated once (with room for the triangles a few
-    // collapses bring).
-    std::vector<std::uint32_t> count(tris_.size(), 0);
-    for (std::uint32_t c : m_.triangles)
-        if (const std::int32_t l = list_[c]; l >= 0) ++count[std::size_t(l)];
-    for (std::size_t l = 0; l < tris_.size(); ++l) tris_[l].reserve(count[l] + 4);
-    for (std::uint32_t t = 0; t < m_.triangle_count(); ++t)
-        for (int k = 0; k < 3; ++k)
-            if (const std::int32_t l = list_[m_.triangles[3 * std::size_t(t) + k]]; l >= 0) tris_[l].push_back(t);
+    // On all threads: counted first, so that each list is allocated once (with room for the
+    // triangles a few collapses bring), then filled at atomic cursors and sorted, which gives
+    // the lists one thread would make.
+    const std::size_t nt = m_.triangle_count();
+    std::vector<std::atomic<std::uint32_t>> count(tris_.size());
+    auto each_listed_corner = [&](auto&& f) {
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nt, 16384), [&](const auto& range) {
+            for (std::size_t t = range.begin(); t != range.end(); ++t)
+                for (int k = 0; k < 3; ++k)
+                    if (const std::int32_t l = list_[m_.triangles[3 * t + k]]; l >= 0) f(std::size_t(l), std::uint32_t(t));
+        });
+    };
+    each_listed_corner([&](std::size_t l, std::uint32_t) { count[l].fetch_add(1, std::memory_order_relaxed); });
+    tbb::parallel_for(std::size_t(0), tris_.size(), [&](std::size_t l) {
+        const std::uint32_t n = count[l].load(std::memory_order_relaxed);
+        tris_[l].reserve(n + 4);
+        tris_[l].resize(n);
+        count[l].store(0, std::memory_order_relaxed);
+    });
+    each_listed_corner([&](std::size_t l, std::uint32_t t) { tris_[l][count[l].fetch_add(1, std::memory_order_relaxed)] = t; });
+    tbb::parallel_for(std::size_t(0), tris_.size(), [&](std::size_t l) { std::sort(tris_[l].begin(), tris_[l].end()); });
 }
 
 std::vector<std::uint32_t>& EdgeCollapser::alive_triangles(std::uint32_t v) {

@@ -1,13 +1,15 @@
 // Triangulation of the coarse surface cells (paper §3.3, docs/design.md §6-7); see surface_mesher.hpp.
 //
 // Phase 1, parallel over fixed chunks of cells: gather each cell's (n+1)^3 values, run marching
-// cubes with cell-local vertex slots, stitch its transition faces (level-3 side). Phase 2, in
-// chunk order while later chunks are still meshed (a TBB pipeline): number vertices; only those
-// on a cell boundary go through a hash. Phase 3, parallel: rewrite triangle indices.
+// cubes with cell-local vertex slots, stitch its transition faces (level-3 side). Phase 2: number
+// the vertices in stream order; only those on a cell boundary go through a hash. On few threads
+// it runs in chunk order while later chunks are still meshed (a TBB pipeline), on many after
+// phase 1 on all threads. Phase 3, parallel: rewrite triangle indices.
 #include "surface_mesher.hpp"
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <type_traits>
@@ -29,12 +31,15 @@ namespace trilevel {
 namespace {
 
 constexpr std::size_t kCellsPerChunk = 64;  // fixed, so chunking never depends on the thread count
+// From this many threads on, phase 2 runs on all threads after phase 1 (number_vertices), below it
+// beside phase 1 on one (number_chunk); both give the same numbers.
+constexpr int kNumberingThreads = 8;
 
 struct ChunkOut {
     std::vector<std::uint64_t> keys;   // per chunk-local vertex: edge key
     std::vector<glm::vec3> positions;
     std::vector<std::uint8_t> level;
-    std::vector<std::uint8_t> shared;  // on a cell boundary: may repeat in other cells
+    std::vector<std::uint8_t> shared;  // on a cell boundary: may repeat in other cells (2: a repeat, while numbering)
     std::vector<std::uint32_t> triangles;
     std::vector<TriangleKind> kinds;
     std::vector<std::uint32_t> crack_runs;  // host/crack_collapse.hpp, chunk-local vertex ids
@@ -217,6 +222,12 @@ void CellMesher::stitch(const CoarseCell& cell, Scratch& s, ChunkOut& out) const
         }
 }
 
+// Frees a vector's storage (`v = {}` would keep its capacity: it assigns an empty list).
+template <class T>
+void release(std::vector<T>& v) {
+    std::vector<T>().swap(v);
+}
+
 // Edge key -> global vertex index, open addressing with linear probing; grows at load 1/2.
 class VertexIndex {
 public:
@@ -265,15 +276,9 @@ private:
     }
 };
 
-// Frees a vector's storage (`v = {}` would keep its capacity: it assigns an empty list).
-template <class T>
-void release(std::vector<T>& v) {
-    std::vector<T>().swap(v);
-}
-
-// Phase 2, in chunk order: number vertices by first appearance in the canonical stream (docs/design.md §6);
-// only vertices on a cell boundary can repeat, so only they go through the index. A vertex made
-// by any level-2 cube is level 2.
+// Phase 2 on few threads, in chunk order while later chunks are still meshed: numbers vertices by
+// first appearance in the canonical stream (docs/design.md §6); only vertices on a cell boundary
+// can repeat, so only they go through the index. A vertex made by any level-2 cube is level 2.
 void number_chunk(ChunkOut& c, VertexIndex& index, std::vector<std::uint32_t>& ids, Mesh& mesh) {
     ids.resize(c.keys.size());
     // This filter is the pipeline's serial part (at 16 threads the meshing keeps up with it): the
@@ -298,6 +303,116 @@ void number_chunk(ChunkOut& c, VertexIndex& index, std::vector<std::uint32_t>& i
     release(c.shared);
 }
 
+// The vertices on cell boundaries, which several cells make, by edge key: where each first
+// appears in the canonical stream (chunk, then chunk-local vertex), the lowest level it is made
+// on, and its global index. Filled by many threads at once (open addressing, linear probing,
+// claimed by compare-and-swap); sized once, at load 1/2 at most.
+class SharedVertices {
+public:
+    explicit SharedVertices(std::size_t count) {
+        std::size_t c = 1024;
+        while (c < 2 * count) c *= 2;
+        mask_ = c - 1;
+        keys_ = std::make_unique<std::atomic<std::uint64_t>[]>(c);
+        first_ = std::make_unique<std::atomic<std::uint64_t>[]>(c);
+        level_ = std::make_unique<std::atomic<std::uint8_t>[]>(c);
+        id_.resize(c);
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, c, 65536), [&](const auto& r) {
+            for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                keys_[i].store(lattice::kEmptyKey, std::memory_order_relaxed);
+                first_[i].store(~std::uint64_t(0), std::memory_order_relaxed);
+                level_[i].store(0xff, std::memory_order_relaxed);
+            }
+        });
+    }
+    // Adds one appearance (its stream position and level); returns the key's slot.
+    std::uint32_t add(std::uint64_t key, std::uint64_t position, std::uint8_t level) {
+        std::uint64_t s = lattice::hash(key) & mask_;
+        for (;; s = (s + 1) & mask_) {
+            std::uint64_t k = keys_[s].load(std::memory_order_relaxed);
+            if (k == lattice::kEmptyKey && keys_[s].compare_exchange_strong(k, key, std::memory_order_relaxed)) break;
+            if (k == key) break;
+        }
+        lower(first_[s], position);
+        lower(level_[s], level);
+        return std::uint32_t(s);
+    }
+    bool first_at(std::uint32_t slot, std::uint64_t position) const { return first_[slot].load(std::memory_order_relaxed) == position; }
+    std::uint8_t level(std::uint32_t slot) const { return level_[slot].load(std::memory_order_relaxed); }
+    std::uint32_t& id(std::uint32_t slot) { return id_[slot]; }
+
+private:
+    template <class T>
+    static void lower(std::atomic<T>& a, T v) {
+        T cur = a.load(std::memory_order_relaxed);
+        while (v < cur && !a.compare_exchange_weak(cur, v, std::memory_order_relaxed)) {
+        }
+    }
+    std::uint64_t mask_ = 0;
+    std::unique_ptr<std::atomic<std::uint64_t>[]> keys_, first_;
+    std::unique_ptr<std::atomic<std::uint8_t>[]> level_;
+    std::vector<std::uint32_t> id_;
+};
+
+// Phase 2 on many threads, after all chunks are meshed: numbers the vertices as number_chunk()
+// does, on all threads, giving the same numbers. Only vertices on a cell boundary can
+// repeat, so only they go through SharedVertices; a vertex made by any level-2 cube is level 2.
+// Four passes over the chunks: shared vertices added; each chunk's new vertices counted; their
+// numbers given from the chunks' prefix sums (positions and levels written); the repeats
+// resolved. ids[ci][v] holds a shared vertex's slot until then (shared[v] == 2 marks a repeat).
+void number_vertices(std::vector<ChunkOut>& chunks, std::vector<std::vector<std::uint32_t>>& ids, Mesh& mesh) {
+    const std::size_t nc = chunks.size();
+    auto each_chunk = [&](auto&& f) {
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nc, 1), [&](const auto& r) {
+            for (std::size_t ci = r.begin(); ci != r.end(); ++ci) f(ci, chunks[ci]);
+        });
+    };
+    auto position = [](std::size_t ci, std::size_t v) { return (std::uint64_t(ci) << 32) | std::uint64_t(v); };
+    std::vector<std::size_t> count(nc + 1, 0);
+    each_chunk([&](std::size_t ci, const ChunkOut& c) {
+        count[ci + 1] = std::size_t(std::count(c.shared.begin(), c.shared.end(), std::uint8_t(1)));
+    });
+    std::size_t shared = 0;
+    for (std::size_t ci = 0; ci < nc; ++ci) shared += count[ci + 1];
+    SharedVertices table(shared);
+    each_chunk([&](std::size_t ci, const ChunkOut& c) {
+        ids[ci].resize(c.keys.size());
+        for (std::size_t v = 0; v < c.keys.size(); ++v)
+            if (c.shared[v]) ids[ci][v] = table.add(c.keys[v], position(ci, v), c.level[v]);
+    });
+    auto fresh = [&](std::size_t ci, std::size_t v) { return !chunks[ci].shared[v] || table.first_at(ids[ci][v], position(ci, v)); };
+    each_chunk([&](std::size_t ci, const ChunkOut& c) {
+        std::size_t n = 0;
+        for (std::size_t v = 0; v < c.keys.size(); ++v) n += fresh(ci, v);
+        count[ci + 1] = n;
+    });
+    for (std::size_t ci = 0; ci < nc; ++ci) count[ci + 1] += count[ci];
+    mesh.positions.resize(3 * count[nc]);
+    mesh.vertex_level.resize(count[nc]);
+    each_chunk([&](std::size_t ci, ChunkOut& c) {
+        std::uint32_t next = std::uint32_t(count[ci]);
+        for (std::size_t v = 0; v < c.keys.size(); ++v) {
+            if (!fresh(ci, v)) {
+                c.shared[v] = 2;  // a repeat, its slot kept for the last pass
+                continue;
+            }
+            const std::uint32_t id = next++;
+            std::copy_n(&c.positions[v].x, 3, mesh.positions.begin() + 3 * std::ptrdiff_t(id));
+            mesh.vertex_level[id] = c.shared[v] ? table.level(ids[ci][v]) : c.level[v];
+            if (c.shared[v]) table.id(ids[ci][v]) = id;
+            ids[ci][v] = id;
+        }
+    });
+    each_chunk([&](std::size_t ci, ChunkOut& c) {
+        for (std::size_t v = 0; v < c.keys.size(); ++v)
+            if (c.shared[v] == 2) ids[ci][v] = table.id(ids[ci][v]);
+        release(c.keys);  // what the remaining phase does not read
+        release(c.positions);
+        release(c.level);
+        release(c.shared);
+    });
+}
+
 // The chunks' crack runs with global vertex ids, in chunk order (host/crack_collapse.hpp).
 CrackRuns global_runs(const std::vector<ChunkOut>& chunks, const std::vector<std::vector<std::uint32_t>>& ids) {
     CrackRuns runs;
@@ -318,34 +433,48 @@ Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame&
                        const std::function<void(const std::vector<float>&)>& beside_collapse, std::vector<std::uint32_t>* kept) {
     if (lattice_frame.coarse_steps < 2 || lattice_frame.coarse_steps % 2)
         throw Error("triangulation: coarse_steps must be even");
-    // Phases 1-2 as a pipeline: chunks are meshed in parallel and numbered in order meanwhile.
     const CellIndex cell_index(cells);
     const CellMesher mesher(lattice_frame, field, cell_index);
     const std::size_t nc = (cells.size() + kCellsPerChunk - 1) / kCellsPerChunk;
     std::vector<ChunkOut> chunks(nc);
     std::vector<std::vector<std::uint32_t>> ids(nc);
-    auto scratch = std::make_unique<tbb::enumerable_thread_specific<Scratch>>();
     Mesh mesh;
-    // Vertices on cell boundaries per cell: 2.0 (db23), 2.3 (x64 adaptive), 3.7 (x64 uniform r).
-    auto index = std::make_unique<VertexIndex>(cells.size() * 4);
-    std::size_t next = 0;
-    auto source = [&](tbb::flow_control& fc) -> std::size_t {
-        if (next == nc) fc.stop();
-        return next++;
-    };
-    auto mesh_chunk = [&](std::size_t ci) {
-        Scratch& s = scratch->local();
+    auto mesh_chunk = [&](std::size_t ci, Scratch& s) {
         const std::size_t end = std::min(cells.size(), (ci + 1) * kCellsPerChunk);
         for (std::size_t i = ci * kCellsPerChunk; i < end; ++i) mesher.mesh(cells[i], s, chunks[ci]);
-        return ci;
     };
-    auto number = [&](std::size_t ci) { number_chunk(chunks[ci], *index, ids[ci], mesh); };
-    tbb::parallel_pipeline(4 * std::size_t(tbb::this_task_arena::max_concurrency()),
-                           tbb::make_filter<void, std::size_t>(tbb::filter_mode::serial_in_order, source) &
-                               tbb::make_filter<std::size_t, std::size_t>(tbb::filter_mode::parallel, mesh_chunk) &
-                               tbb::make_filter<std::size_t, void>(tbb::filter_mode::serial_in_order, number));
-    index.reset();  // freed before phase 3 allocates the mesh's triangles (the run's peak at x64)
-    scratch.reset();
+    {
+        tbb::enumerable_thread_specific<Scratch> scratch;
+        if (tbb::this_task_arena::max_concurrency() < kNumberingThreads) {
+            // Phases 1-2 as a pipeline: chunks are meshed in parallel and numbered in order
+            // meanwhile, which hides the numbering behind the meshing and frees each chunk's
+            // vertices at once (the peak of a run on few cores).
+            // Vertices on cell boundaries per cell: 2.0 (db23), 2.3 (x64 adaptive), 3.7 (x64 uniform r).
+            VertexIndex index(cells.size() * 4);
+            std::size_t next = 0;
+            tbb::parallel_pipeline(
+                4 * std::size_t(tbb::this_task_arena::max_concurrency()),
+                tbb::make_filter<void, std::size_t>(tbb::filter_mode::serial_in_order,
+                                                    [&](tbb::flow_control& fc) -> std::size_t {
+                                                        if (next == nc) fc.stop();
+                                                        return next++;
+                                                    }) &
+                    tbb::make_filter<std::size_t, std::size_t>(tbb::filter_mode::parallel,
+                                                               [&](std::size_t ci) {
+                                                                   mesh_chunk(ci, scratch.local());
+                                                                   return ci;
+                                                               }) &
+                    tbb::make_filter<std::size_t, void>(tbb::filter_mode::serial_in_order,
+                                                        [&](std::size_t ci) { number_chunk(chunks[ci], index, ids[ci], mesh); }));
+        } else {
+            // Many threads mesh faster than one numbers (about 50 ms of x64 on 16 cores), so the
+            // chunks are meshed first and numbered on all threads.
+            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nc, 1), [&](const auto& r) {
+                for (std::size_t ci = r.begin(); ci != r.end(); ++ci) mesh_chunk(ci, scratch.local());
+            });
+            number_vertices(chunks, ids, mesh);
+        }
+    }  // the index is freed before phase 3 allocates the mesh's triangles (the run's peak at x64)
 
     const CrackRuns runs = closing == CrackClosing::Collapse ? global_runs(chunks, ids) : CrackRuns{};
     // Phase 3: triangles with global indices, in chunk order.
