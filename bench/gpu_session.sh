@@ -6,7 +6,9 @@
 #
 # $DEV/bin: trilevel, trilevel_tests, device_frames; $DEV/lib: libOpenCL.so.1, libtbb.so.12,
 # libdeflate.so.0; $DEV/x64.bgeo (particles.py resample db23 --factor 64 --radius 0.025 --seed 1);
-# $DEV/shared: data/ and tools/ of ../shared. Writes $OUT/log.txt and the JSON of each step.
+# $DEV/shared: data/ and tools/ of ../shared. Optional: $DEV/x64_s2.bgeo, $DEV/x64_s3.bgeo (seeds 2
+# and 3; made on the machine when absent and RESAMPLE=1). TESTS: a Catch test spec for the last
+# step (default: every test). Writes $OUT/log.txt and the JSON of each step.
 set -u
 DEV=${DEV:-.dev}
 DEV=$(cd "$DEV" && pwd)
@@ -37,10 +39,11 @@ echo "GPU=$GPU CPU=$CPU"
 [ -n "$GPU" ] || { echo "no GPU device"; exit 1; }
 
 # The tests' ../shared, at the path the build recorded (tests skip real frames without it).
-[ -e /work/shared ] || { mkdir -p /work && ln -s "$DEV/shared" /work/shared; }
+[ -e "$DEV/../../shared" ] || ln -s "$DEV/shared" "$DEV/../../shared"
 
-stamp "two more x64 frames (seeds 2, 3) in the background"
-[ "$RESAMPLE" = 1 ] && (cd $W && for s in 2 3; do nice -n 19 python3 "$DEV/shared/tools/particles.py" resample \
+stamp "the x64 frames of seeds 2 and 3: carried, or made in the background"
+for s in 2 3; do [ -s $DEV/x64_s$s.bgeo ] && ln -sf $DEV/x64_s$s.bgeo $W/x64_s$s.bgeo; done
+[ "$RESAMPLE" = 1 ] && (cd $W && for s in 2 3; do [ -s x64_s$s.bgeo ] || nice -n 19 python3 "$DEV/shared/tools/particles.py" resample \
     "$DEV/shared/data/dam_break_frame_23_24389_particles.bgeo" x64_s$s.bgeo --factor 64 --radius 0.025 --seed $s \
     > resample_$s.log 2>&1 & done; wait) &
 RPID=$!
@@ -57,9 +60,9 @@ for s in 2 3; do [ -s $W/x64_s$s.bgeo ] && FILES="$FILES $W/x64_s$s.bgeo" || cat
 echo "frames: $FILES"
 
 stamp "in-process frames/s: GPU 16 and 2 host threads, PoCL 16 threads"
-$DEV/bin/device_frames --device $GPU --threads 16 --frames 12 --radius $R --json $OUT/gpu16.json $FILES
-$DEV/bin/device_frames --device $GPU --threads 2 --frames 6 --radius $R --json $OUT/gpu2.json $FILES
-$DEV/bin/device_frames --device $CPU --threads 16 --frames 6 --radius $R --json $OUT/pocl16.json $FILES
+$DEV/bin/device_frames --device $GPU --threads 16 --frames ${FRAMES:-12} --radius $R --json $OUT/gpu16.json $FILES
+$DEV/bin/device_frames --device $GPU --threads 2 --frames ${FRAMES_SLOW:-6} --radius $R --json $OUT/gpu2.json $FILES
+$DEV/bin/device_frames --device $CPU --threads 16 --frames ${FRAMES_SLOW:-6} --radius $R --json $OUT/pocl16.json $FILES
 
 stamp "CLI, whole process: one x64 frame, 3 interleaved pairs"
 timed() {  # LABEL CMD...: the whole process's wall time and peak RSS
@@ -80,6 +83,13 @@ for d in $GPU $CPU; do
 done
 echo "(frames/s = 12 / wall)"
 
-stamp "all tests on the GPU (time left)"
-(cd $DEV/t && TRILEVEL_DEVICE=$GPU timeout 200 $DEV/bin/trilevel_tests 2>&1 | tail -4)
+if [ -x $DEV/bin/trilevel_probe ]; then  # a build with timing prints in the triangulation, where carried
+  stamp "triangulation's parts on the GPU, 16 threads"
+  for i in 1 2; do $DEV/bin/trilevel_probe reconstruct $DEV/x64.bgeo -r $R -o $W/probe.ply -q --device $GPU --threads 16; done
+fi
+
+stamp "tests on the GPU: ${TESTS:-all}"
+# The CLI tests start the CLI where the build put it: the checkout's build/bin.
+mkdir -p "$DEV/../build/bin" && { [ -e "$DEV/../build/bin/trilevel" ] || cp $T "$DEV/../build/bin/trilevel"; }
+(cd $DEV/t && TRILEVEL_DEVICE=$GPU timeout ${TESTS_TIMEOUT:-200} $DEV/bin/trilevel_tests -# ${TESTS:-} > $OUT/tests.txt 2>&1; tail -4 $OUT/tests.txt)
 stamp done

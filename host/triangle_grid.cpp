@@ -108,18 +108,34 @@ void TriangleGrid::relist(std::uint32_t t, glm::dvec3 lo, glm::dvec3 hi, Local* 
         return;
     }
     // A Local's triangles must keep within reach(): queries of other threads use it unchanged.
-    if (local->head_.empty()) local->head_.assign(moved_head_.size(), ~0u);
     local->tri_.push_back(t);
     local->cell_.push_back(std::uint32_t(c));
-    local->next_.push_back(local->head_[c]);
-    local->head_[c] = std::uint32_t(local->tri_.size() - 1);
+    local->next_.push_back(local->head(c));
+    local->set_head(c, std::uint32_t(local->tri_.size() - 1));
+}
+
+void TriangleGrid::Local::set_head(std::size_t cell, std::uint32_t entry) {
+    if (2 * (used_ + 1) > cells_.size()) {  // grow: the slots again at twice the size
+        std::vector<std::uint32_t> old_cells = std::move(cells_), old_heads = std::move(heads_);
+        cells_.assign(std::max<std::size_t>(1024, 2 * old_cells.size()), 0);
+        heads_.resize(cells_.size());
+        used_ = 0;
+        for (std::size_t s = 0; s < old_cells.size(); ++s)
+            if (old_cells[s] != 0) set_head(old_cells[s] - 1, old_heads[s]);
+    }
+    std::size_t s = slot_of(cell);
+    while (cells_[s] != 0 && cells_[s] != cell + 1) s = (s + 1) & (cells_.size() - 1);
+    if (cells_[s] == 0) {
+        cells_[s] = std::uint32_t(cell + 1);
+        ++used_;
+    }
+    heads_[s] = entry;
 }
 
 void TriangleGrid::adopt(Local& local) {
-    for (std::size_t k = 0; k < local.tri_.size(); ++k) {
-        relist_in_grid(local.tri_[k], local.cell_[k]);
-        if (!local.head_.empty()) local.head_[local.cell_[k]] = ~0u;  // left clean for its next region
-    }
+    for (std::size_t k = 0; k < local.tri_.size(); ++k) relist_in_grid(local.tri_[k], local.cell_[k]);
+    std::fill(local.cells_.begin(), local.cells_.end(), 0u);  // left clean for its next region
+    local.used_ = 0;
     local.tri_.clear();
     local.next_.clear();
     local.cell_.clear();

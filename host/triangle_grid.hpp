@@ -35,7 +35,20 @@ public:
 
     private:
         friend class TriangleGrid;
-        std::vector<std::uint32_t> head_;             // per cell: its newest entry, ~0u: none (allocated on first use)
+        // Per cell that holds any: its newest entry. A hash of the cells (open addressing, linear
+        // probing, load 1/2 at most) rather than an array over the grid, which every thread's
+        // Local would hold (megabytes each on a large frame) for a few thousand entries.
+        std::vector<std::uint32_t> cells_, heads_;  // cell + 1 (0: a free slot), its newest entry
+        std::size_t used_ = 0;
+        std::uint32_t head(std::size_t cell) const {
+            if (used_ == 0) return ~0u;
+            for (std::size_t s = slot_of(cell);; s = (s + 1) & (cells_.size() - 1)) {
+                if (cells_[s] == 0) return ~0u;
+                if (cells_[s] == cell + 1) return heads_[s];
+            }
+        }
+        void set_head(std::size_t cell, std::uint32_t entry);
+        std::size_t slot_of(std::size_t cell) const { return (cell * 0x9E3779B97F4A7C15ull >> 20) & (cells_.size() - 1); }
         std::vector<std::uint32_t> next_, tri_, cell_;  // entries, oldest first
         std::vector<std::uint32_t> reported_;         // a query's relisted triangles, reported once
     };
@@ -102,9 +115,9 @@ void TriangleGrid::for_each_near(glm::dvec3 lo, glm::dvec3 hi, Local& local, Vis
             if (moved_in_row_[std::size_t(z) * std::size_t(dims_.y) + std::size_t(y)] != 0)
                 for (int x = c0.x; x <= c1.x; ++x)
                     for (std::uint32_t k = moved_head_[row + std::size_t(x)]; k != ~0u; k = moved_next_[k]) report(moved_tri_[k]);
-            if (!local.head_.empty())
+            if (local.used_ != 0)
                 for (int x = c0.x; x <= c1.x; ++x)
-                    for (std::uint32_t k = local.head_[row + std::size_t(x)]; k != ~0u; k = local.next_[k]) report(local.tri_[k]);
+                    for (std::uint32_t k = local.head(row + std::size_t(x)); k != ~0u; k = local.next_[k]) report(local.tri_[k]);
         }
 }
 
