@@ -5,9 +5,6 @@
 #include <cmath>
 
 #include <glm/glm.hpp>
-#include <tbb/blocked_range.h>
-#include <tbb/enumerable_thread_specific.h>
-#include <tbb/parallel_for.h>
 
 #include "edge_collapse.hpp"
 
@@ -76,26 +73,9 @@ std::size_t collapse_crack_runs(Mesh& mesh, const CrackRuns& runs, std::vector<s
             for (std::size_t k = 1; k <= runs[s.first]; ++k)
                 extent = std::max(extent, std::abs(c.position(runs[s.first + k])[axis] - c.position(runs[s.first + 1])[axis]));
         const double width = 2.0 * extent + 6.0 * c.interaction_reach();
-        const std::size_t slabs = std::size_t(std::min(std::floor(size[axis] / width), 1e6)) + 1;
-        std::vector<std::vector<std::uint32_t>> in_slab(slabs);  // run numbers, ascending
-        for (std::uint32_t r = 0; r < states.size(); ++r) {
-            const double x = c.position(runs[states[r].first + 1])[axis] - lo[axis];
-            in_slab[std::min(slabs - 1, std::size_t(x / width))].push_back(r);
-        }
-        std::vector<std::uint8_t> deferred(states.size(), 0);
-        tbb::enumerable_thread_specific<EdgeCollapser::Worker> workers([] {
-            EdgeCollapser::Worker w;
-            w.parallel = true;
-            return w;
-        });
-        for (std::size_t parity = 0; parity < 2; ++parity) {
-            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, (slabs + 1 - parity) / 2, 1), [&](const auto& range) {
-                EdgeCollapser::Worker& w = workers.local();
-                for (std::size_t k = range.begin(); k != range.end(); ++k)
-                    for (std::uint32_t r : in_slab[2 * k + parity]) deferred[r] = !collapse_run(c, runs, states[r], w);
-            });
-            for (EdgeCollapser::Worker& w : workers) c.adopt(w);
-        }
+        const std::vector<std::uint8_t> deferred = c.in_slabs(
+            states.size(), size[axis], width, [&](std::uint32_t r) { return c.position(runs[states[r].first + 1])[axis] - lo[axis]; },
+            [&](std::uint32_t r, EdgeCollapser::Worker& w) { return collapse_run(c, runs, states[r], w); });
         EdgeCollapser::Worker serial;
         for (std::uint32_t r = 0; r < states.size(); ++r)
             if (deferred[r]) collapse_run(c, runs, states[r], serial);

@@ -8,12 +8,17 @@
 #pragma once
 
 #include <cstddef>
+#include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <cstdint>
 #include <optional>
 #include <vector>
 
 #include <glm/glm.hpp>
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
 
 #include "triangle_grid.hpp"
 #include "trilevel/trilevel.hpp"
@@ -64,6 +69,14 @@ public:
     Outcome collapse(std::uint32_t v, std::uint32_t a, Worker& w);
     /// Moves the triangles a worker relisted into the index's own lists (between parallel phases).
     void adopt(Worker& w);
+    /// Runs work(i, worker) for items i = 0 .. n-1 on all threads, in slabs `width` wide by
+    /// coordinate place(i) in [0, span] along one axis: the even slabs at once, then the odd ones,
+    /// each slab's items in ascending order, each thread with a region's Worker. Two items in
+    /// slabs of one parity lie a slab apart, so where `width` covers what an item reads and
+    /// writes, the result does not depend on the threads. Returns, per item, whether work gave
+    /// false (it left the rest for a serial pass, in item order, by the caller).
+    template <class Place, class Work>
+    std::vector<std::uint8_t> in_slabs(std::size_t n, double span, double width, Place&& place, Work&& work);
 
     /// collapse()'s scratch and, for a region's worker, the triangles it relisted (triangle_grid.hpp).
     struct MovedTriangle {  // makes_crossing()'s scratch: corners after, positions before and after, box after, normals
@@ -96,5 +109,27 @@ private:
     // crossed nowhere before and shares no vertex with? Leaves the moved triangles in w.moved.
     bool makes_crossing(std::uint32_t v, std::uint32_t a, const std::vector<std::uint32_t>& moved, Worker& w);
 };
+
+template <class Place, class Work>
+std::vector<std::uint8_t> EdgeCollapser::in_slabs(std::size_t n, double span, double width, Place&& place, Work&& work) {
+    const std::size_t slabs = std::size_t(std::min(std::floor(span / width), 1e6)) + 1;
+    std::vector<std::vector<std::uint32_t>> in_slab(slabs);  // item numbers, ascending
+    for (std::uint32_t i = 0; i < n; ++i) in_slab[std::min(slabs - 1, std::size_t(place(i) / width))].push_back(i);
+    std::vector<std::uint8_t> deferred(n, 0);
+    tbb::enumerable_thread_specific<Worker> workers([] {
+        Worker w;
+        w.parallel = true;
+        return w;
+    });
+    for (std::size_t parity = 0; parity < 2; ++parity) {
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, (slabs + 1 - parity) / 2, 1), [&](const auto& range) {
+            Worker& w = workers.local();
+            for (std::size_t k = range.begin(); k != range.end(); ++k)
+                for (std::uint32_t i : in_slab[2 * k + parity]) deferred[i] = !work(i, w);
+        });
+        for (Worker& w : workers) adopt(w);
+    }
+    return deferred;
+}
 
 }  // namespace trilevel

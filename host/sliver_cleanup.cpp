@@ -7,8 +7,6 @@
 #include <vector>
 
 #include <glm/glm.hpp>
-#include <tbb/blocked_range.h>
-#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include "edge_collapse.hpp"
@@ -59,29 +57,12 @@ std::size_t collapse_slivers(Mesh& mesh, std::vector<std::uint32_t>* kept) {
     }
     const glm::dvec3 size = hi - lo;
     const int axis = size.x >= size.y && size.x >= size.z ? 0 : size.y >= size.z ? 1 : 2;
-    const double width = 6.0 * c.interaction_reach();
-    const std::size_t slabs = std::size_t(std::min(std::floor(size[axis] / width), 1e6)) + 1;
-    std::vector<std::vector<std::uint32_t>> in_slab(slabs);  // edge indices, ascending
-    for (std::uint32_t i = 0; i < edges.size(); ++i)
-        in_slab[std::min(slabs - 1, std::size_t((at(edges[i].second)[axis] - lo[axis]) / width))].push_back(i);
-    std::vector<std::uint8_t> deferred(edges.size(), 0);
-    tbb::enumerable_thread_specific<EdgeCollapser::Worker> workers([] {
-        EdgeCollapser::Worker w;
-        w.parallel = true;
-        return w;
-    });
-    for (std::size_t parity = 0; parity < 2; ++parity) {
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, (slabs + 1 - parity) / 2, 1), [&](const auto& range) {
-            EdgeCollapser::Worker& w = workers.local();
-            for (std::size_t k = range.begin(); k != range.end(); ++k)
-                for (std::uint32_t i : in_slab[2 * k + parity]) {
-                    const auto [a, b] = edges[i];  // an edge listed twice, or gone with an earlier collapse, is refused
-                    if (c.dead(a) || c.dead(b)) continue;
-                    deferred[i] = c.collapse(b, a, w) == EdgeCollapser::Outcome::Deferred;
-                }
+    const std::vector<std::uint8_t> deferred = c.in_slabs(
+        edges.size(), size[axis], 6.0 * c.interaction_reach(), [&](std::uint32_t i) { return at(edges[i].second)[axis] - lo[axis]; },
+        [&](std::uint32_t i, EdgeCollapser::Worker& w) {
+            const auto [a, b] = edges[i];  // an edge listed twice, or gone with an earlier collapse, is refused
+            return c.dead(a) || c.dead(b) || c.collapse(b, a, w) != EdgeCollapser::Outcome::Deferred;
         });
-        for (EdgeCollapser::Worker& w : workers) c.adopt(w);
-    }
     for (std::uint32_t i = 0; i < edges.size(); ++i)
         if (deferred[i] && !c.dead(edges[i].first) && !c.dead(edges[i].second)) c.collapse(edges[i].second, edges[i].first);
     const std::size_t collapsed = c.collapses();
