@@ -53,13 +53,11 @@ std::size_t collapse_crack_runs(Mesh& mesh, const CrackRuns& runs, std::vector<s
     }
     EdgeCollapser c(mesh, vertices);
     if (!states.empty()) {
-        // Runs on all threads, in slabs across the longest axis, as the sliver cleanup does
-        // (sliver_cleanup.cpp): a collapse reads within 3 and writes within 2 interaction reaches
-        // of its vertex (edge_collapse.hpp), and a run's vertices lie within `extent` of its
-        // first end, so two runs in slabs of one parity a slab apart (2 extent + 6 reaches)
-        // never meet. Even slabs first, then odd; in a slab the runs in their order; a run whose
-        // collapse would grow a triangle beyond the bound goes on in the serial pass, in run
-        // order. The result does not depend on the threads.
+        // Whole runs on all threads (EdgeCollapser::in_slabs), each in the slab of its first end
+        // across the longest axis: a collapse reads within 3 and writes within 2 interaction
+        // reaches of its vertex (edge_collapse.hpp), and a run's vertices lie within `extent` of
+        // its first end, so slabs 2 extent + 6 reaches wide keep runs of one parity apart. A run
+        // whose collapse would grow a triangle beyond the bound goes on afterwards, in run order.
         c.prepare_parallel(1.5);
         glm::dvec3 lo = c.position(runs[1]), hi = lo;
         for (std::uint32_t v : vertices) {

@@ -228,6 +228,14 @@ void release(std::vector<T>& v) {
     std::vector<T>().swap(v);
 }
 
+// Frees a numbered chunk's vertices: what phase 3 does not read.
+void release_vertices(ChunkOut& c) {
+    release(c.keys);
+    release(c.positions);
+    release(c.level);
+    release(c.shared);
+}
+
 // Edge key -> global vertex index, open addressing with linear probing; grows at load 1/2.
 class VertexIndex {
 public:
@@ -297,10 +305,7 @@ void number_chunk(ChunkOut& c, VertexIndex& index, std::vector<std::uint32_t>& i
         }
         ids[v] = id;
     }
-    release(c.keys);  // what the remaining phase does not read
-    release(c.positions);
-    release(c.level);
-    release(c.shared);
+    release_vertices(c);
 }
 
 // The vertices on cell boundaries, which several cells make, by edge key: where each first
@@ -359,7 +364,8 @@ private:
 // repeat, so only they go through SharedVertices; a vertex made by any level-2 cube is level 2.
 // Four passes over the chunks: shared vertices added; each chunk's new vertices counted; their
 // numbers given from the chunks' prefix sums (positions and levels written); the repeats
-// resolved. ids[ci][v] holds a shared vertex's slot until then (shared[v] == 2 marks a repeat).
+// resolved. ids[ci][v] holds a shared vertex's slot until then; the count marks a repeat with
+// shared[v] == 2, so that only it probes the table for first appearances.
 void number_vertices(std::vector<ChunkOut>& chunks, std::vector<std::vector<std::uint32_t>>& ids, Mesh& mesh) {
     const std::size_t nc = chunks.size();
     auto each_chunk = [&](auto&& f) {
@@ -380,10 +386,12 @@ void number_vertices(std::vector<ChunkOut>& chunks, std::vector<std::vector<std:
         for (std::size_t v = 0; v < c.keys.size(); ++v)
             if (c.shared[v]) ids[ci][v] = table.add(c.keys[v], position(ci, v), c.level[v]);
     });
-    auto fresh = [&](std::size_t ci, std::size_t v) { return !chunks[ci].shared[v] || table.first_at(ids[ci][v], position(ci, v)); };
-    each_chunk([&](std::size_t ci, const ChunkOut& c) {
+    each_chunk([&](std::size_t ci, ChunkOut& c) {
         std::size_t n = 0;
-        for (std::size_t v = 0; v < c.keys.size(); ++v) n += fresh(ci, v);
+        for (std::size_t v = 0; v < c.keys.size(); ++v) {
+            if (c.shared[v] && !table.first_at(ids[ci][v], position(ci, v))) c.shared[v] = 2;  // a repeat, its slot kept
+            n += c.shared[v] != 2;
+        }
         count[ci + 1] = n;
     });
     for (std::size_t ci = 0; ci < nc; ++ci) count[ci + 1] += count[ci];
@@ -392,10 +400,7 @@ void number_vertices(std::vector<ChunkOut>& chunks, std::vector<std::vector<std:
     each_chunk([&](std::size_t ci, ChunkOut& c) {
         std::uint32_t next = std::uint32_t(count[ci]);
         for (std::size_t v = 0; v < c.keys.size(); ++v) {
-            if (!fresh(ci, v)) {
-                c.shared[v] = 2;  // a repeat, its slot kept for the last pass
-                continue;
-            }
+            if (c.shared[v] == 2) continue;
             const std::uint32_t id = next++;
             std::copy_n(&c.positions[v].x, 3, mesh.positions.begin() + 3 * std::ptrdiff_t(id));
             mesh.vertex_level[id] = c.shared[v] ? table.level(ids[ci][v]) : c.level[v];
@@ -406,10 +411,7 @@ void number_vertices(std::vector<ChunkOut>& chunks, std::vector<std::vector<std:
     each_chunk([&](std::size_t ci, ChunkOut& c) {
         for (std::size_t v = 0; v < c.keys.size(); ++v)
             if (c.shared[v] == 2) ids[ci][v] = table.id(ids[ci][v]);
-        release(c.keys);  // what the remaining phase does not read
-        release(c.positions);
-        release(c.level);
-        release(c.shared);
+        release_vertices(c);
     });
 }
 
