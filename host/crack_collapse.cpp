@@ -53,26 +53,21 @@ std::size_t collapse_crack_runs(Mesh& mesh, const CrackRuns& runs, std::vector<s
     }
     EdgeCollapser c(mesh, vertices);
     if (!states.empty()) {
-        // Whole runs on all threads (EdgeCollapser::in_slabs), each in the slab of its first end
-        // across the longest axis: a collapse reads within 3 and writes within 2 interaction
-        // reaches of its vertex (edge_collapse.hpp), and a run's vertices lie within `extent` of
-        // its first end, so slabs 2 extent + 6 reaches wide keep runs of one parity apart. A run
-        // whose collapse would grow a triangle beyond the bound goes on afterwards, in run order.
+        // Whole runs on all threads (EdgeCollapser::in_tiles), each in the tile of its first end:
+        // a collapse reads within 3 and writes within 2 interaction reaches of its vertex
+        // (edge_collapse.hpp), and a run's vertices lie within `extent` of its first end along
+        // every axis, so tiles 2 extent + 6 reaches wide keep runs of one phase apart. A run whose
+        // collapse would grow a triangle beyond the bound goes on afterwards, in run order.
         c.prepare_parallel(1.5);
-        glm::dvec3 lo = c.position(runs[1]), hi = lo;
-        for (std::uint32_t v : vertices) {
-            lo = glm::min(lo, c.position(v));
-            hi = glm::max(hi, c.position(v));
-        }
-        const glm::dvec3 size = hi - lo;
-        const int axis = size.x >= size.y && size.x >= size.z ? 0 : size.y >= size.z ? 1 : 2;
         double extent = 0.0;
         for (const RunState& s : states)
-            for (std::size_t k = 1; k <= runs[s.first]; ++k)
-                extent = std::max(extent, std::abs(c.position(runs[s.first + k])[axis] - c.position(runs[s.first + 1])[axis]));
+            for (std::size_t k = 2; k <= runs[s.first]; ++k) {
+                const glm::dvec3 d = glm::abs(c.position(runs[s.first + k]) - c.position(runs[s.first + 1]));
+                extent = std::max({extent, d.x, d.y, d.z});
+            }
         const double width = 2.0 * extent + 6.0 * c.interaction_reach();
-        const std::vector<std::uint8_t> deferred = c.in_slabs(
-            states.size(), size[axis], width, [&](std::uint32_t r) { return c.position(runs[states[r].first + 1])[axis] - lo[axis]; },
+        const std::vector<std::uint8_t> deferred = c.in_tiles(
+            states.size(), width, [&](std::uint32_t r) { return c.position(runs[states[r].first + 1]); },
             [&](std::uint32_t r, EdgeCollapser::Worker& w) { return collapse_run(c, runs, states[r], w); });
         EdgeCollapser::Worker serial;
         for (std::uint32_t r = 0; r < states.size(); ++r)

@@ -69,14 +69,16 @@ public:
     Outcome collapse(std::uint32_t v, std::uint32_t a, Worker& w);
     /// Moves the triangles a worker relisted into the index's own lists (between parallel phases).
     void adopt(Worker& w);
-    /// Runs work(i, worker) for items i = 0 .. n-1 on all threads, in slabs `width` wide by
-    /// coordinate place(i) in [0, span] along one axis: the even slabs at once, then the odd ones,
-    /// each slab's items in ascending order, each thread with a region's Worker. Two items in
-    /// slabs of one parity lie a slab apart, so where `width` covers what an item reads and
-    /// writes, the result does not depend on the threads. Returns, per item, whether work gave
-    /// false (it left the rest for a serial pass, in item order, by the caller).
-    template <class Place, class Work>
-    std::vector<std::uint8_t> in_slabs(std::size_t n, double span, double width, Place&& place, Work&& work);
+    /// Runs work(i, worker) for items i = 0 .. n-1 on all threads, in square tiles `width` wide
+    /// across the two longest axes of the box around the items' points position(i): four phases,
+    /// one per parity of the tile's column and row, each phase's tiles at once, a tile's items in
+    /// ascending order, each thread with a region's Worker. Two tiles of one phase lie a tile apart
+    /// along one axis at least, so where `width` covers what an item reads and writes along every
+    /// axis, the result does not depend on the threads. (Slabs across one axis, two phases, left
+    /// a frame's few heavy slabs to one thread each.) Returns, per item, whether work gave false
+    /// (it left the rest for a serial pass, in item order, by the caller).
+    template <class Position, class Work>
+    std::vector<std::uint8_t> in_tiles(std::size_t n, double width, Position&& position, Work&& work);
 
     /// collapse()'s scratch and, for a region's worker, the triangles it relisted (triangle_grid.hpp).
     struct MovedTriangle {  // makes_crossing()'s scratch: corners after, positions before and after, box after, normals
@@ -110,24 +112,52 @@ private:
     bool makes_crossing(std::uint32_t v, std::uint32_t a, const std::vector<std::uint32_t>& moved, Worker& w);
 };
 
-template <class Place, class Work>
-std::vector<std::uint8_t> EdgeCollapser::in_slabs(std::size_t n, double span, double width, Place&& place, Work&& work) {
-    const std::size_t slabs = std::size_t(std::min(std::floor(span / width), 1e6)) + 1;
-    std::vector<std::vector<std::uint32_t>> in_slab(slabs);  // item numbers, ascending
-    for (std::uint32_t i = 0; i < n; ++i) in_slab[std::min(slabs - 1, std::size_t(place(i) / width))].push_back(i);
+template <class Position, class Work>
+std::vector<std::uint8_t> EdgeCollapser::in_tiles(std::size_t n, double width, Position&& position, Work&& work) {
     std::vector<std::uint8_t> deferred(n, 0);
+    if (n == 0) return deferred;
+    glm::dvec3 lo = position(0), hi = lo;
+    for (std::uint32_t i = 1; i < n; ++i) {
+        const glm::dvec3 p = position(i);
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+    }
+    const glm::dvec3 size = hi - lo;
+    const int u = size.x >= size.y && size.x >= size.z ? 0 : size.y >= size.z ? 1 : 2;  // the longest axis
+    const int v = u == 0 ? (size.y >= size.z ? 1 : 2) : u == 1 ? (size.x >= size.z ? 0 : 2) : (size.x >= size.y ? 0 : 1);
+    constexpr std::uint64_t kLast = (1u << 21) - 1;  // tiles per axis, at most (a key's 21 bits)
+    auto tile = [&](double x) {
+        const double t = width > 0.0 ? std::floor(x / width) : 0.0;
+        return t >= double(kLast) ? kLast : std::uint64_t(t);
+    };
+    // Each item's key: phase (2 bits), row, column; sorted by key, then item.
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> order(n);
+    for (std::uint32_t i = 0; i < n; ++i) {
+        const glm::dvec3 p = position(i) - lo;
+        const std::uint64_t col = tile(p[u]), row = tile(p[v]);
+        order[i] = {((col & 1) | (row & 1) << 1) << 42 | row << 21 | col, i};
+    }
+    std::sort(order.begin(), order.end());
+    std::vector<std::size_t> first;  // where each tile's items begin in `order`, and n
+    for (std::size_t k = 0; k < n; ++k)
+        if (k == 0 || order[k].first != order[k - 1].first) first.push_back(k);
+    first.push_back(n);
     tbb::enumerable_thread_specific<Worker> workers([] {
         Worker w;
         w.parallel = true;
         return w;
     });
-    for (std::size_t parity = 0; parity < 2; ++parity) {
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, (slabs + 1 - parity) / 2, 1), [&](const auto& range) {
+    for (std::size_t b = 0; b + 1 < first.size();) {  // phase by phase: tiles b .. e - 1
+        const std::uint64_t phase = order[first[b]].first >> 42;
+        std::size_t e = b + 1;
+        while (e + 1 < first.size() && order[first[e]].first >> 42 == phase) ++e;
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(b, e, 1), [&](const auto& range) {
             Worker& w = workers.local();
-            for (std::size_t k = range.begin(); k != range.end(); ++k)
-                for (std::uint32_t i : in_slab[2 * k + parity]) deferred[i] = !work(i, w);
+            for (std::size_t t = range.begin(); t != range.end(); ++t)
+                for (std::size_t k = first[t]; k < first[t + 1]; ++k) deferred[order[k].second] = !work(order[k].second, w);
         });
         for (Worker& w : workers) adopt(w);
+        b = e;
     }
     return deferred;
 }

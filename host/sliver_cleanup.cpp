@@ -44,21 +44,14 @@ std::size_t collapse_slivers(Mesh& mesh, std::vector<std::uint32_t>* kept) {
     // Moved triangles may grow to 1.5 times the largest now: on the x64 dam break none grows more
     // (at 1.0, a third of the collapses would wait for the serial pass).
     c.prepare_parallel(1.5);
-    // Regions: slabs across the mesh's longest axis, 6 interaction reaches wide, the even ones on
-    // all threads at once, then the odd ones. A collapse reads within 3 and writes within 2 reaches
-    // of its v (edge_collapse.hpp), so two slabs of one parity, a slab apart, never meet; the
-    // result does not depend on the threads. In a slab, the edges in their order; an edge whose
-    // collapse would grow a triangle beyond the bound waits for the serial pass at the end, in
-    // the edges' order. Each edge's v is its higher end (merged into the lower).
-    glm::dvec3 lo = at(edges[0].second), hi = lo;
-    for (auto [a, b] : edges) {
-        lo = glm::min(lo, at(b));
-        hi = glm::max(hi, at(b));
-    }
-    const glm::dvec3 size = hi - lo;
-    const int axis = size.x >= size.y && size.x >= size.z ? 0 : size.y >= size.z ? 1 : 2;
-    const std::vector<std::uint8_t> deferred = c.in_slabs(
-        edges.size(), size[axis], 6.0 * c.interaction_reach(), [&](std::uint32_t i) { return at(edges[i].second)[axis] - lo[axis]; },
+    // Regions: tiles across the mesh's two longest axes, 6 interaction reaches wide, in four
+    // phases (EdgeCollapser::in_tiles). A collapse reads within 3 and writes within 2 reaches of
+    // its v (edge_collapse.hpp), so two tiles of one phase, a tile apart, never meet; the result
+    // does not depend on the threads. In a tile, the edges in their order; an edge whose collapse
+    // would grow a triangle beyond the bound waits for the serial pass at the end, in the edges'
+    // order. Each edge's v is its higher end (merged into the lower), and places its edge.
+    const std::vector<std::uint8_t> deferred = c.in_tiles(
+        edges.size(), 6.0 * c.interaction_reach(), [&](std::uint32_t i) { return at(edges[i].second); },
         [&](std::uint32_t i, EdgeCollapser::Worker& w) {
             const auto [a, b] = edges[i];  // an edge listed twice, or gone with an earlier collapse, is refused
             return c.dead(a) || c.dead(b) || c.collapse(b, a, w) != EdgeCollapser::Outcome::Deferred;

@@ -22,8 +22,8 @@ constexpr double kSliverEdgeRatio = 0.15;
 /// times its longest, the higher-numbered end into the lower (which keeps its position: the move
 /// is the short edge's length), where that keeps the mesh a closed oriented 2-manifold, turns no
 /// triangle over and moves none through another. The edges are taken in triangle order within
-/// slabs across the mesh, far enough apart to be collapsed on several threads at once (every
-/// other slab at a time; sliver_cleanup.cpp): the result is the same on any number of threads.
+/// tiles across the mesh, far enough apart to be collapsed on several threads at once (a quarter
+/// of the tiles at a time; sliver_cleanup.cpp): the result is the same on any number of threads.
 /// Removes the dead vertices and triangles (order of the rest kept) and returns the number of
 /// edges collapsed. `kept`, where given, receives the old index of each vertex left, ascending
 /// (no vertex moves: a vertex's data computed before carries over).
