@@ -92,8 +92,8 @@ TEST_CASE("output is bit-identical across runs, reconstructors and work-group si
 TEST_CASE("output is bit-identical on 1 to 16 host threads", "[e2e][determinism]") {
     // The host stages split work by thread count: the vertex numbering beside the meshing (few
     // threads) or after it on all threads (many), the crack collapse and the sliver cleanup in
-    // slabs, the smoothing's sweeps. Arenas of these sizes run them on that many threads, also
-    // on a machine with fewer cores.
+    // tiles, the smoothing's sweeps. Arenas of these sizes take the paths of that many threads
+    // (their max_concurrency), also on a machine with fewer cores, where fewer threads run them.
     const float r = 0.025f;
     std::vector<std::pair<std::string, ParticleSet>> frames = {{"falling-drop", generate_scene("falling-drop", r, 5)},
                                                                {"pool-and-drop", generate_scene("pool-and-drop", r, 5)}};
