@@ -1,9 +1,14 @@
 // FramePipeline (trilevel/pipeline.hpp): a worker thread meshes, a sink thread hands meshes on;
 // each hand-off is a rendezvous (one slot, the giver waits until the taker has it), so each stage
 // holds one frame and the memory in flight stays one input and one mesh above a frame at a time.
+// Where the frames are post-processed (smoothing, sliver cleanup, normals, ...) and no memory
+// limit is set, a finisher thread between them runs frame k's post-processing, which is host work
+// only, while the worker meshes frame k+1 (Reconstructor::mesh_then_finish).
 #include "trilevel/pipeline.hpp"
 
 #include <condition_variable>
+#include <functional>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -79,42 +84,86 @@ struct FramePipeline::Impl {
         std::exception_ptr error;
     };
 
+    /// A frame meshed, its post-processing still to run (`finish`, empty where it failed).
+    struct Meshed {
+        std::unique_ptr<PipelineFrame> frame;  // on the heap: `finish` writes its stats
+        std::function<Mesh()> finish;
+    };
+
     Reconstructor& rec;
     const Params params;
     const Sink sink;
+    /// Whether frames go through the finisher: their post-processing has work (smoothing, sliver
+    /// cleanup, normals, component removal, clipping; attributes alone stay with the worker) and
+    /// no memory limit is set (a frame in the finisher is one more mesh, and its post-processing's
+    /// arrays, in flight, which the limit's accounting does not count).
+    const bool overlap;
     Rendezvous<Input> to_worker;
+    Rendezvous<Meshed> to_finisher;
     Rendezvous<PipelineFrame> to_sink;
     std::mutex m;
     std::exception_ptr sink_error;  ///< the first exception of the sink: the pipeline stops
     std::uint64_t pushed = 0;
     bool finished = false;
-    std::thread worker, sink_thread;
+    std::thread worker, finisher, sink_thread;
 
-    Impl(Reconstructor& r, const Params& p, Sink s) : rec(r), params(p), sink(std::move(s)) {
+    static bool has_post_processing(const Params& p) {
+        return p.smooth || p.sliver_cleanup || p.normals != NormalMode::None || p.remove_components_below > 0.0f || p.clip_box;
+    }
+
+    Impl(Reconstructor& r, const Params& p, Sink s)
+        : rec(r), params(p), sink(std::move(s)), overlap(p.memory_limit_bytes == 0 && has_post_processing(p)) {
         sink_thread = std::thread([this] { sink_loop(); });
+        if (overlap) finisher = std::thread([this] { finisher_loop(); });
         worker = std::thread([this] { worker_loop(); });
     }
 
     void worker_loop() {
         std::uint64_t held_mesh = 0;  // bytes of the mesh the sink holds (the previous frame's)
         while (std::optional<Input> in = to_worker.take()) {
-            PipelineFrame out;
-            out.index = in->index;
-            out.error = in->error;
-            if (!out.error) {
+            Meshed out{std::make_unique<PipelineFrame>(), {}};
+            out.frame->index = in->index;
+            out.frame->error = in->error;
+            if (!out.frame->error) {
                 try {
                     Params p = params;
                     if (p.memory_limit_bytes) p.memory_limit_bytes = frame_limit(held_mesh, input_bytes(in->xyz, in->attributes));
-                    out.mesh = rec.reconstruct(std::move(in->xyz), p, &out.stats, in->attributes);
+                    out.finish = rec.mesh_then_finish(std::move(in->xyz), p, out.frame->stats, std::move(in->attributes));
                 } catch (...) {
-                    out.mesh = Mesh{};
-                    out.stats = Stats{};
-                    out.error = std::current_exception();
+                    out.frame->stats = Stats{};
+                    out.frame->error = std::current_exception();
                 }
             }
             in.reset();  // the attributes (the positions went to the device) before the hand-off
-            held_mesh = mesh_bytes(out.mesh);
-            if (!to_sink.put(std::move(out))) break;  // the sink failed: stop
+            if (overlap) {
+                if (!to_finisher.put(std::move(out))) break;  // the sink failed: stop
+                continue;
+            }
+            finish(out);
+            held_mesh = mesh_bytes(out.frame->mesh);
+            if (!to_sink.put(std::move(*out.frame))) break;  // the sink failed: stop
+        }
+        if (overlap) to_finisher.close();
+        else to_sink.close();
+    }
+
+    /// Runs a frame's post-processing (its error in the frame, as the worker's).
+    static void finish(Meshed& job) {
+        if (!job.finish) return;
+        try {
+            job.frame->mesh = job.finish();
+        } catch (...) {
+            job.frame->mesh = Mesh{};
+            job.frame->stats = Stats{};
+            job.frame->error = std::current_exception();
+        }
+        job.finish = nullptr;  // the frame's positions and grid, before the hand-off
+    }
+
+    void finisher_loop() {
+        while (std::optional<Meshed> job = to_finisher.take()) {
+            finish(*job);
+            if (!to_sink.put(std::move(*job->frame))) break;  // the sink failed: stop
         }
         to_sink.close();
     }
@@ -142,6 +191,7 @@ struct FramePipeline::Impl {
                     sink_error = std::current_exception();
                 }
                 to_sink.close(true);
+                to_finisher.close(true);
                 to_worker.close(true);
                 return;
             }
@@ -166,6 +216,7 @@ struct FramePipeline::Impl {
         finished = true;
         to_worker.close();
         worker.join();
+        if (finisher.joinable()) finisher.join();
         sink_thread.join();
     }
 };

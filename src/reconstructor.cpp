@@ -268,6 +268,12 @@ bool reads_particles_later(const Params& p, bool attributes) { return gradient_n
 class FrameGrid {
 public:
     FrameGrid(const float* xyz, std::size_t n, const Params& p) : xyz_(xyz), n_(n), p_(p) {}
+    /// Another frame's particles (the grid, if built, is dropped).
+    void use(const float* xyz, std::size_t n) {
+        xyz_ = xyz;
+        n_ = n;
+        grid_.reset();
+    }
     const ParticleGrid& get() {
         if (!grid_) grid_.emplace(vertex_particle_grid(xyz_, n_, p_.particle_radius, p_.kernel_radius * p_.particle_radius));
         return *grid_;
@@ -377,6 +383,64 @@ bool levels_comparable(const Params& a, const Params& b) {
 
 }  // namespace
 
+/// A frame after its mesh: what reconstruct() does on the host alone (post-processing, normals,
+/// attributes, the frame's totals), kept apart so that FramePipeline can run it on another thread
+/// while the Reconstructor meshes the next frame. It reads only what it holds: the positions (its
+/// own or the caller's), the attributes, the frame's particle grid and the mesh.
+struct FrameTail {
+    FrameTail(const Params& params, Stats& stats) : p(params), s(stats), grid(nullptr, 0, p) {}
+    FrameTail(const FrameTail&) = delete;
+    FrameTail& operator=(const FrameTail&) = delete;
+
+    /// The particles: `xyz` points into own_xyz or at the caller's array.
+    void set_particles(const float* positions, std::size_t n) {
+        xyz = positions;
+        count = n;
+        grid.use(xyz, count);
+    }
+
+    /// Post-processing, normals and attributes: world units, after any scaling or split.
+    Mesh finish() {
+        try {
+            const bool carried = crack_kept.size() == mesh.vertex_count() && !early_weights.empty();
+            early_weights = carried ? kept_values(early_weights, crack_kept) : std::vector<float>{};
+            std::vector<std::uint32_t>().swap(crack_kept);
+            if (p.remove_components_below > 0.0f) remove_components(mesh, p, s);
+            if (s.components_removed) early_weights.clear();  // renumbered: computed again after
+            postprocess(mesh, grid, keep_grid, p, s, std::move(early_weights));
+            if (p.clip_box) clip_to_box(mesh, p, s);  // last: every vertex ends in the box
+            add_vertex_data(mesh, grid, xyz, count, p, *attributes, s);
+        } catch (const std::bad_alloc&) {
+            throw Error("out of host memory during reconstruction; use a larger cell, a smaller domain or --memory-limit");
+        }
+        s.time_ms.emplace_back("total", std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+        // Program builds first: the constructor's, and any on demand during this frame.
+        if (loaded_ms >= 0) s.time_ms.insert(s.time_ms.begin(), {"kernel_load", loaded_ms});
+        if (compiled_ms >= 0) s.time_ms.insert(s.time_ms.begin(), {"kernel_compile", compiled_ms});
+        if (box_all) {  // Params::particle_box: counted over every particle given
+            s.particles = *box_all;
+            s.particles_outside_box = *box_all - count;
+        }
+        return std::move(mesh);
+    }
+
+    const Params p;  ///< without particle_box (applied before)
+    Stats& s;
+    std::vector<float> own_xyz;
+    std::vector<ParticleAttribute> own_attributes;
+    const float* xyz = nullptr;
+    std::size_t count = 0;
+    const std::vector<ParticleAttribute>* attributes = &own_attributes;
+    std::optional<std::size_t> box_all;  ///< the particles before Params::particle_box took its own
+    FrameGrid grid;  ///< built by the first stage that reads the particles
+    bool keep_grid = false;
+    std::vector<float> early_weights;       ///< the smoothing weights computed beside the crack collapse
+    std::vector<std::uint32_t> crack_kept;  ///< the old index of each vertex the crack collapse left
+    Mesh mesh;
+    Clock::time_point t0 = Clock::now();
+    double compiled_ms = -1.0, loaded_ms = -1.0;
+};
+
 struct Reconstructor::Impl {
     Impl(int device, std::function<void(const KernelCompileNotice&)> on_compile) : rt(device, std::move(on_compile)) {}
     Impl(cl_context c, cl_device_id d, cl_command_queue q) : rt(c, d, q) {}
@@ -410,6 +474,9 @@ struct Reconstructor::Impl {
     /// domain, each on a lattice of its own).
     Mesh run_stages(const float* xyz, std::size_t n, const Params& p, const Grid& g, Stats& s, bool keep_levels = true);
     void remember_levels(const std::vector<CoarseCell>& cells, const Grid& g, const Params& p, Stats& s);
+    /// reconstruct() up to the mesh, into t.mesh: checks, device stages, triangulation (the
+    /// smoothing weights beside the crack collapse when t's post-processing needs them).
+    void mesh_frame(FrameTail& t);
     /// Frees the handed-over positions once copied or uploaded, when `xyz` are they (a split
     /// domain's groups are copies, and its later groups still read the original).
     void release_input(const float* xyz) {
@@ -707,84 +774,89 @@ Mesh Reconstructor::reconstruct(const DevicePositions& d, const Params& params, 
 
 Mesh Reconstructor::reconstruct(std::vector<float>&& xyz, const Params& params, Stats* stats,
                                 const std::vector<ParticleAttribute>& attributes) {
+    Stats local;
+    return mesh_then_finish(std::move(xyz), params, stats ? *stats : local, attributes)();
+}
+
+std::function<Mesh()> Reconstructor::mesh_then_finish(std::vector<float>&& xyz, const Params& params, Stats& stats,
+                                                      std::vector<ParticleAttribute> attributes) {
     if (xyz.size() % 3 != 0)
         throw Error("positions: " + std::to_string(xyz.size()) + " floats are not x, y, z triplets");
-    std::vector<float> owned = std::move(xyz);
+    Params q = params;
+    q.particle_box.reset();
+    auto t = std::make_shared<FrameTail>(q, stats);
+    t->own_xyz = std::move(xyz);
+    t->own_attributes = std::move(attributes);
     if (params.particle_box) {  // filtered in place; the rest runs on the particles inside
         validate(params);
-        validate_attributes(attributes, owned.size() / 3);
-        const std::size_t all = owned.size() / 3;
-        std::vector<ParticleAttribute> inside = attributes;
-        const std::size_t kept = all ? keep_particles_in_box(owned, inside, *params.particle_box) : 0;
-        Params q = params;
-        q.particle_box.reset();
-        Stats local;
-        Stats& s = stats ? *stats : local;
-        Mesh m = reconstruct(std::move(owned), q, &s, inside);
-        s.particles = all;
-        s.particles_outside_box = all - kept;
-        return m;
+        validate_attributes(t->own_attributes, t->own_xyz.size() / 3);
+        t->box_all = t->own_xyz.size() / 3;
+        if (*t->box_all) keep_particles_in_box(t->own_xyz, t->own_attributes, *params.particle_box);
     }
-    impl_->handed_over = reads_particles_later(params, !attributes.empty()) ? nullptr : &owned;
+    t->set_particles(t->own_xyz.data(), t->own_xyz.size() / 3);
+    impl_->handed_over = reads_particles_later(q, !t->own_attributes.empty()) ? nullptr : &t->own_xyz;
     struct Forget {  // whatever happens, the Impl does not keep a pointer to this frame's vector
         Impl& impl;
         ~Forget() { impl.handed_over = nullptr; }
     } forget{*impl_};
-    return reconstruct(owned.data(), owned.size() / 3, params, stats, attributes);
+    impl_->mesh_frame(*t);
+    return [t] { return t->finish(); };
 }
 
 Mesh Reconstructor::reconstruct(const float* xyz, std::size_t count, const Params& params, Stats* stats,
                                 const std::vector<ParticleAttribute>& attributes) {
+    if (params.particle_box) {
+        validate(params);
+        if (count == 0) throw Error("no particles to reconstruct (the input is empty)");
+        if (count > std::numeric_limits<std::uint32_t>::max() / 2) throw Error("too many particles for one frame");
+        validate_attributes(attributes, count);
+        return reconstruct(std::vector<float>(xyz, xyz + 3 * count), params, stats, attributes);
+    }
+    Stats local;
+    FrameTail t(params, stats ? *stats : local);
+    t.set_particles(xyz, count);
+    t.attributes = &attributes;
+    impl_->mesh_frame(t);
+    return t.finish();
+}
+
+void Reconstructor::Impl::mesh_frame(FrameTail& t) {
+    const float* xyz = t.xyz;
+    const std::size_t count = t.count;
+    const Params& params = t.p;
     validate(params);
     if (count == 0) throw Error("no particles to reconstruct (the input is empty)");
     if (count > std::numeric_limits<std::uint32_t>::max() / 2) throw Error("too many particles for one frame");
-    validate_attributes(attributes, count);
-    if (params.particle_box) return reconstruct(std::vector<float>(xyz, xyz + 3 * count), params, stats, attributes);
-    Stats local;
-    Stats& s = stats ? *stats : local;
+    validate_attributes(*t.attributes, count);
+    Stats& s = t.s;
     s = Stats{};
-    auto t0 = Clock::now();
-    OpenCLRuntime& rt = impl_->rt;
+    t.t0 = Clock::now();
     const OpenCLRuntime::ProgramBuildTimes built_before = rt.take_program_build_times();  // the constructor's
     rt.inject_fault(environment().fault);  // test hook: opencl_runtime.hpp, inject_fault
     // Whatever fails, the runtime is reset (queue drained, events dropped) so that the next frame
     // starts clean, and no partial mesh is returned.
     try {
-        FrameGrid grid(xyz, count, params);  // built by the first stage that reads the particles
-        const bool keep_grid = gradient_normals_wanted(params) || !attributes.empty();
+        t.keep_grid = gradient_normals_wanted(params) || !t.attributes->empty();
         // The smoothing weights, computed beside the crack collapse where the mesh comes from one
         // unscaled lattice (a host core waits there otherwise); else post-processing computes them.
-        std::vector<float> early_weights;
         struct Beside {  // whatever happens, the hook does not outlive this frame
             Impl& impl;
             ~Beside() {
                 impl.beside_crack_collapse = nullptr;
                 impl.crack_kept.clear();
             }
-        } beside{*impl_};
+        } beside{*this};
         if (params.smooth && xyz && length_scale_exponent(params.particle_radius) == 0)
-            impl_->beside_crack_collapse = [&](const std::vector<float>& positions) {
-                early_weights = frame_weights(positions, grid, keep_grid, params);
+            beside_crack_collapse = [&t](const std::vector<float>& positions) {
+                t.early_weights = frame_weights(positions, t.grid, t.keep_grid, t.p);
             };
-        Mesh m = impl_->mesh_in_float_range(xyz, count, params, s);
+        t.mesh = mesh_in_float_range(xyz, count, params, s);
         rt.end_frame();  // the frame's buffers stay pooled for the next one (trimmed when oversized)
-        const bool carried = impl_->crack_kept.size() == m.vertex_count() && !early_weights.empty();
-        early_weights = carried ? kept_values(early_weights, impl_->crack_kept) : std::vector<float>{};
-        // Post-processing, normals and attributes: world units, after any scaling or split.
-        if (params.remove_components_below > 0.0f) remove_components(m, params, s);
-        if (s.components_removed) early_weights.clear();  // renumbered: computed again after
-        postprocess(m, grid, keep_grid, params, s, std::move(early_weights));
-        if (params.clip_box) clip_to_box(m, params, s);  // last: every vertex ends in the box
-        add_vertex_data(m, grid, xyz, count, params, attributes, s);
-        s.time_ms.emplace_back("total", std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
-        // Program builds first: the constructor's, and any on demand during this frame.
+        t.crack_kept = std::move(crack_kept);
         const OpenCLRuntime::ProgramBuildTimes during = rt.take_program_build_times();
         const auto sum = [](double a, double b) { return a < 0 ? b : b < 0 ? a : a + b; };
-        const double compiled = sum(built_before.compiled_ms, during.compiled_ms);
-        const double loaded = sum(built_before.loaded_ms, during.loaded_ms);
-        if (loaded >= 0) s.time_ms.insert(s.time_ms.begin(), {"kernel_load", loaded});
-        if (compiled >= 0) s.time_ms.insert(s.time_ms.begin(), {"kernel_compile", compiled});
-        return m;
+        t.compiled_ms = sum(built_before.compiled_ms, during.compiled_ms);
+        t.loaded_ms = sum(built_before.loaded_ms, during.loaded_ms);
     } catch (const cl::Error& e) {
         const std::string stage = rt.stage().empty() ? std::string("setup") : rt.stage();
         rt.recover();

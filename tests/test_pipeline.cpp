@@ -87,6 +87,81 @@ TEST_CASE("FramePipeline: the meshes, stats and history of frame-by-frame calls,
     CHECK(s6.level_history);
 }
 
+TEST_CASE("FramePipeline: post-processing beside the next frame's meshing gives the frame-by-frame meshes and stats",
+          "[pipeline]") {
+    // Smoothing, sliver cleanup and normals make the pipeline run each frame's post-processing on
+    // its finisher thread while the worker meshes the next frame; a particle box and an attribute
+    // take the tail's own copies of the positions and attributes; frame 2 fails in the worker and
+    // passes the finisher in its place.
+    trilevel::Params p = sequence_params();
+    p.smooth = true;
+    p.sliver_cleanup = true;
+    p.normals = trilevel::NormalMode::Area;
+    constexpr int kFrames = 5, kBad = 2;
+    auto frame = [&](int f) {
+        std::vector<float> xyz = falling_drop(f);
+        trilevel::ParticleAttribute height{"height", 1, {}};
+        for (std::size_t i = 0; i < xyz.size(); i += 3) height.values.push_back(xyz[i + 2]);
+        if (f == kBad) height.values.pop_back();  // one value short: rejected before the box is applied
+        return std::pair{xyz, std::vector<trilevel::ParticleAttribute>{height}};
+    };
+    {  // a box that leaves the highest particles of frame 0 out
+        const std::vector<float> xyz = falling_drop(0);
+        trilevel::Box box{{-1e3f, -1e3f, -1e3f}, {1e3f, 1e3f, 0.0f}};
+        for (std::size_t i = 0; i < xyz.size(); i += 3) box.max[2] = std::max(box.max[2], xyz[i + 2]);
+        box.max[2] -= 0.1f;
+        p.particle_box = box;
+    }
+    std::vector<trilevel::Mesh> expected(kFrames);
+    std::vector<trilevel::Stats> expected_stats(kFrames);
+    {
+        trilevel::Reconstructor rec;
+        for (int f = 0; f < kFrames; ++f) {
+            auto [xyz, attributes] = frame(f);
+            if (f != kBad) expected[f] = rec.reconstruct(std::move(xyz), p, &expected_stats[f], attributes);
+        }
+    }
+    REQUIRE(expected_stats[0].particles_outside_box > 0);
+    REQUIRE(expected_stats[0].time_ms.size() > 2);
+    trilevel::Reconstructor rec;
+    std::vector<trilevel::PipelineFrame> got;
+    {
+        trilevel::FramePipeline pipe(rec, p, [&](trilevel::PipelineFrame& f) { got.push_back(std::move(f)); });
+        for (int f = 0; f < kFrames; ++f) {
+            auto [xyz, attributes] = frame(f);
+            pipe.push(std::move(xyz), std::move(attributes));
+        }
+        pipe.finish();
+    }
+    REQUIRE(got.size() == kFrames);
+    for (int f = 0; f < kFrames; ++f) {
+        INFO("frame " << f);
+        CHECK(got[f].index == std::uint64_t(f));
+        if (f == kBad) {
+            REQUIRE(got[f].error);
+            CHECK_THROWS_WITH(std::rethrow_exception(got[f].error), Catch::Contains("height"));
+            continue;
+        }
+        REQUIRE_FALSE(got[f].error);
+        REQUIRE(got[f].mesh.attributes.size() == 1);
+        REQUIRE_FALSE(got[f].mesh.normals.empty());
+        CHECK(same_mesh(got[f].mesh, expected[f]));
+        const trilevel::Stats &a = got[f].stats, &b = expected_stats[f];
+        CHECK(a.closed);
+        CHECK(a.particles == b.particles);
+        CHECK(a.particles_outside_box == b.particles_outside_box);
+        CHECK(a.triangles == b.triangles);
+        CHECK(a.sliver_edges_collapsed == b.sliver_edges_collapsed);
+        CHECK(a.smoothing_reverted_moves == b.smoothing_reverted_moves);
+        CHECK(a.level_flips == b.level_flips);
+        std::vector<std::string> stages_a, stages_b;
+        for (const auto& [name, ms] : a.time_ms) stages_a.push_back(name);
+        for (const auto& [name, ms] : b.time_ms) stages_b.push_back(name);
+        CHECK(stages_a == stages_b);
+        CHECK(stages_a.back() == "total");
+    }
+}
+
 TEST_CASE("FramePipeline: a frame reconstruct rejects fails alone, and a sink that throws stops the pipeline", "[pipeline]") {
     trilevel::Reconstructor rec;
     const trilevel::Params p = sequence_params();

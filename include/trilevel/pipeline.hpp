@@ -35,9 +35,12 @@ struct PipelineFrame {
 };
 
 /// Three stages, one frame in each: the caller's (producing frame k+1), the worker's (meshing
-/// frame k with the Reconstructor) and the sink's (frame k-1). Memory: besides what one frame at a
+/// frame k with the Reconstructor) and the sink's (frame k-1). Where `params` post-process the
+/// meshes (smooth, sliver_cleanup, normals, remove_components_below, clip_box) and set no memory
+/// limit, a fourth stage, on its own thread, runs frame k's post-processing (host work only) while
+/// the worker meshes frame k+1; the meshes stay bit-identical. Memory: besides what one frame at a
 /// time holds, one more input (the frame the caller produces) and one more mesh (the one in the
-/// sink) are alive. With Params::memory_limit_bytes set, each frame is meshed under the limit less
+/// sink) are alive, and with the fourth stage the frame it post-processes. With Params::memory_limit_bytes set, each frame is meshed under the limit less
 /// the bytes of those two: the mesh the sink still holds (its exact size) and the next input (taken
 /// as large as this frame's positions and attributes, which a steady sequence matches); a frame
 /// whose limit leaves nothing fails with an Error saying so. Frames are never meshed two at a time,
