@@ -38,6 +38,7 @@ EnvironmentOverrides environment() {
 
     if (const char* v = value_of("TRILEVEL_NO_TMPFILE")) e.no_tmpfile = *v == '1';
     if (const char* v = value_of("TRILEVEL_PIPELINE")) e.pipeline = std::strcmp(v, "0") != 0;
+    if (const char* v = value_of("TRILEVEL_PIPELINE_FINISHER")) e.pipeline_finisher = std::strcmp(v, "0") != 0;
     return e;
 }
 

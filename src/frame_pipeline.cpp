@@ -1,9 +1,10 @@
 // FramePipeline (trilevel/pipeline.hpp): a worker thread meshes, a sink thread hands meshes on;
 // each hand-off is a rendezvous (one slot, the giver waits until the taker has it), so each stage
 // holds one frame and the memory in flight stays one input and one mesh above a frame at a time.
-// Where the frames are post-processed (smoothing, sliver cleanup, normals, ...) and no memory
-// limit is set, a finisher thread between them runs frame k's post-processing, which is host work
-// only, while the worker meshes frame k+1 (Reconstructor::mesh_then_finish).
+// Where the frames are post-processed (smoothing, sliver cleanup, normals, ...), no memory limit
+// is set and the device is not a CPU, a finisher thread between them runs frame k's
+// post-processing, which is host work only, while the worker meshes frame k+1
+// (Reconstructor::mesh_then_finish).
 #include "trilevel/pipeline.hpp"
 
 #include <condition_variable>
@@ -13,6 +14,8 @@
 #include <optional>
 #include <string>
 #include <thread>
+
+#include "environment.hpp"
 
 namespace trilevel {
 
@@ -94,9 +97,11 @@ struct FramePipeline::Impl {
     const Params params;
     const Sink sink;
     /// Whether frames go through the finisher: their post-processing has work (smoothing, sliver
-    /// cleanup, normals, component removal, clipping; attributes alone stay with the worker) and
-    /// no memory limit is set (a frame in the finisher is one more mesh, and its post-processing's
-    /// arrays, in flight, which the limit's accounting does not count).
+    /// cleanup, normals, component removal, clipping; attributes alone stay with the worker), no
+    /// memory limit is set (a frame in the finisher is one more mesh, and its post-processing's
+    /// arrays, in flight, which the limit's accounting does not count), and the device is not a
+    /// CPU (environment.hpp, TRILEVEL_PIPELINE_FINISHER): a CPU device's stages keep the host's
+    /// cores busy already.
     const bool overlap;
     Rendezvous<Input> to_worker;
     Rendezvous<Meshed> to_finisher;
@@ -112,7 +117,11 @@ struct FramePipeline::Impl {
     }
 
     Impl(Reconstructor& r, const Params& p, Sink s)
-        : rec(r), params(p), sink(std::move(s)), overlap(p.memory_limit_bytes == 0 && has_post_processing(p)) {
+        : rec(r),
+          params(p),
+          sink(std::move(s)),
+          overlap(p.memory_limit_bytes == 0 && has_post_processing(p) &&
+                  environment().pipeline_finisher.value_or(r.device().type != "CPU")) {
         sink_thread = std::thread([this] { sink_loop(); });
         if (overlap) finisher = std::thread([this] { finisher_loop(); });
         worker = std::thread([this] { worker_loop(); });

@@ -93,6 +93,7 @@ TEST_CASE("FramePipeline: post-processing beside the next frame's meshing gives 
     // its finisher thread while the worker meshes the next frame; a particle box and an attribute
     // take the tail's own copies of the positions and attributes; frame 2 fails in the worker and
     // passes the finisher in its place.
+    const ScopedEnv finisher("TRILEVEL_PIPELINE_FINISHER", "1");  // on for a CPU device too
     trilevel::Params p = sequence_params();
     p.smooth = true;
     p.sliver_cleanup = true;

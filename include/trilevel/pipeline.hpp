@@ -37,8 +37,9 @@ struct PipelineFrame {
 /// Three stages, one frame in each: the caller's (producing frame k+1), the worker's (meshing
 /// frame k with the Reconstructor) and the sink's (frame k-1). Where `params` post-process the
 /// meshes (smooth, sliver_cleanup, normals, remove_components_below, clip_box) and set no memory
-/// limit, a fourth stage, on its own thread, runs frame k's post-processing (host work only) while
-/// the worker meshes frame k+1; the meshes stay bit-identical. Memory: besides what one frame at a
+/// limit, and the device is not a CPU (TRILEVEL_PIPELINE_FINISHER=0 or 1 overrides that), a fourth
+/// stage, on its own thread, runs frame k's post-processing (host work only) while the worker
+/// meshes frame k+1; the meshes stay bit-identical. Memory: besides what one frame at a
 /// time holds, one more input (the frame the caller produces) and one more mesh (the one in the
 /// sink) are alive, and with the fourth stage the frame it post-processes. With Params::memory_limit_bytes set, each frame is meshed under the limit less
 /// the bytes of those two: the mesh the sink still holds (its exact size) and the next input (taken
