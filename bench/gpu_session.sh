@@ -83,6 +83,13 @@ for d in $GPU $CPU; do
 done
 echo "(frames/s = 12 / wall)"
 
+stamp "CLI sequence with --smooth: the pipeline's finisher thread off and on (12 frames, GPU)"
+for f in 0 1 0 1; do
+  TRILEVEL_PIPELINE_FINISHER=$f timed "smoothed sequence of 12, finisher $f" $T reconstruct "$W/in_{}.bgeo" -r $R \
+    -o "$W/smooth_${f}_{}.ply" -q --device $GPU --threads 16 --smooth
+done
+for k in $(seq 0 11); do cmp -s $W/smooth_0_$k.ply $W/smooth_1_$k.ply || echo "smoothed frame $k differs"; done
+
 if [ -x $DEV/bin/trilevel_probe ]; then  # a build with timing prints in the triangulation, where carried
   stamp "triangulation's parts on the GPU, 16 threads"
   for i in 1 2; do $DEV/bin/trilevel_probe reconstruct $DEV/x64.bgeo -r $R -o $W/probe.ply -q --device $GPU --threads 16; done
