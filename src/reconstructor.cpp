@@ -477,6 +477,13 @@ struct Reconstructor::Impl {
     /// reconstruct() up to the mesh, into t.mesh: checks, device stages, triangulation (the
     /// smoothing weights beside the crack collapse when t's post-processing needs them).
     void mesh_frame(FrameTail& t);
+    /// reconstruct(std::vector<float>&&)'s stages up to the mesh, with the positions held by the
+    /// returned tail (Params::particle_box applied to them first). The attributes are read where
+    /// they are, or taken over from `take` where given (FramePipeline), or copied where the box
+    /// filters them.
+    std::shared_ptr<FrameTail> mesh_owned(std::vector<float>&& xyz, const Params& params, Stats& stats,
+                                          const std::vector<ParticleAttribute>& attributes,
+                                          std::vector<ParticleAttribute>* take);
     /// Frees the handed-over positions once copied or uploaded, when `xyz` are they (a split
     /// domain's groups are copies, and its later groups still read the original).
     void release_input(const float* xyz) {
@@ -775,32 +782,44 @@ Mesh Reconstructor::reconstruct(const DevicePositions& d, const Params& params, 
 Mesh Reconstructor::reconstruct(std::vector<float>&& xyz, const Params& params, Stats* stats,
                                 const std::vector<ParticleAttribute>& attributes) {
     Stats local;
-    return mesh_then_finish(std::move(xyz), params, stats ? *stats : local, attributes)();
+    return impl_->mesh_owned(std::move(xyz), params, stats ? *stats : local, attributes, nullptr)->finish();
 }
 
 std::function<Mesh()> Reconstructor::mesh_then_finish(std::vector<float>&& xyz, const Params& params, Stats& stats,
                                                       std::vector<ParticleAttribute> attributes) {
+    std::shared_ptr<FrameTail> t = impl_->mesh_owned(std::move(xyz), params, stats, attributes, &attributes);
+    return [t] { return t->finish(); };
+}
+
+std::shared_ptr<FrameTail> Reconstructor::Impl::mesh_owned(std::vector<float>&& xyz, const Params& params, Stats& stats,
+                                                           const std::vector<ParticleAttribute>& attributes,
+                                                           std::vector<ParticleAttribute>* take) {
     if (xyz.size() % 3 != 0)
         throw Error("positions: " + std::to_string(xyz.size()) + " floats are not x, y, z triplets");
     Params q = params;
     q.particle_box.reset();
     auto t = std::make_shared<FrameTail>(q, stats);
     t->own_xyz = std::move(xyz);
-    t->own_attributes = std::move(attributes);
-    if (params.particle_box) {  // filtered in place; the rest runs on the particles inside
+    if (take) t->own_attributes = std::move(*take);
+    else t->attributes = &attributes;  // read where they are
+    if (params.particle_box) {  // filtered in place (the attributes: a copy); the rest runs on the particles inside
         validate(params);
-        validate_attributes(t->own_attributes, t->own_xyz.size() / 3);
+        validate_attributes(*t->attributes, t->own_xyz.size() / 3);
+        if (t->attributes != &t->own_attributes) {
+            t->own_attributes = *t->attributes;
+            t->attributes = &t->own_attributes;
+        }
         t->box_all = t->own_xyz.size() / 3;
         if (*t->box_all) keep_particles_in_box(t->own_xyz, t->own_attributes, *params.particle_box);
     }
     t->set_particles(t->own_xyz.data(), t->own_xyz.size() / 3);
-    impl_->handed_over = reads_particles_later(q, !t->own_attributes.empty()) ? nullptr : &t->own_xyz;
+    handed_over = reads_particles_later(q, !t->attributes->empty()) ? nullptr : &t->own_xyz;
     struct Forget {  // whatever happens, the Impl does not keep a pointer to this frame's vector
         Impl& impl;
         ~Forget() { impl.handed_over = nullptr; }
-    } forget{*impl_};
-    impl_->mesh_frame(*t);
-    return [t] { return t->finish(); };
+    } forget{*this};
+    mesh_frame(*t);
+    return t;
 }
 
 Mesh Reconstructor::reconstruct(const float* xyz, std::size_t count, const Params& params, Stats* stats,
