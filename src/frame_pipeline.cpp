@@ -143,7 +143,7 @@ struct FramePipeline::Impl {
                     out.frame->error = std::current_exception();
                 }
             }
-            in.reset();  // the attributes (the positions went to the device) before the hand-off
+            in.reset();  // what the tail did not take over (a failed frame's input) before the hand-off
             if (overlap) {
                 if (!to_finisher.put(std::move(out))) break;  // the sink failed: stop
                 continue;
