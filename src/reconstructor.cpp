@@ -383,6 +383,18 @@ bool levels_comparable(const Params& a, const Params& b) {
 
 }  // namespace
 
+namespace {
+
+/// The checks of a frame before any work: parameters, particle count, attributes.
+void validate_frame(const Params& p, std::size_t count, const std::vector<ParticleAttribute>& attributes) {
+    validate(p);
+    if (count == 0) throw Error("no particles to reconstruct (the input is empty)");
+    if (count > std::numeric_limits<std::uint32_t>::max() / 2) throw Error("too many particles for one frame");
+    validate_attributes(attributes, count);
+}
+
+}  // namespace
+
 /// A frame after its mesh: what reconstruct() does on the host alone (post-processing, normals,
 /// attributes, the frame's totals), kept apart so that FramePipeline can run it on another thread
 /// while the Reconstructor meshes the next frame. It reads only what it holds: the positions (its
@@ -825,10 +837,7 @@ std::shared_ptr<FrameTail> Reconstructor::Impl::mesh_owned(std::vector<float>&& 
 Mesh Reconstructor::reconstruct(const float* xyz, std::size_t count, const Params& params, Stats* stats,
                                 const std::vector<ParticleAttribute>& attributes) {
     if (params.particle_box) {
-        validate(params);
-        if (count == 0) throw Error("no particles to reconstruct (the input is empty)");
-        if (count > std::numeric_limits<std::uint32_t>::max() / 2) throw Error("too many particles for one frame");
-        validate_attributes(attributes, count);
+        validate_frame(params, count, attributes);  // before the copy
         return reconstruct(std::vector<float>(xyz, xyz + 3 * count), params, stats, attributes);
     }
     Stats local;
@@ -843,10 +852,7 @@ void Reconstructor::Impl::mesh_frame(FrameTail& t) {
     const float* xyz = t.xyz;
     const std::size_t count = t.count;
     const Params& params = t.p;
-    validate(params);
-    if (count == 0) throw Error("no particles to reconstruct (the input is empty)");
-    if (count > std::numeric_limits<std::uint32_t>::max() / 2) throw Error("too many particles for one frame");
-    validate_attributes(*t.attributes, count);
+    validate_frame(params, count, *t.attributes);
     Stats& s = t.s;
     s = Stats{};
     t.t0 = Clock::now();
