@@ -93,7 +93,7 @@ inline long hash_insert(volatile __global ulong* keys, ulong capacity, ulong key
 }
 
 // hash_insert keeping the table's counters: stats[0] = overflow flag, stats[1] = keys newly
-// inserted (the host grows the table when it passes its load limit: 1/2, fine points 0.8).
+// inserted (the host grows the table when it passes its load limit: 1/2, fine points 0.85).
 // The counters' side of an insert that returned slot `s` (-1: full) and `created`.
 inline long count_insert(long s, int created, volatile __global int* stats) {
     if (created) atomic_inc(&stats[1]);
