@@ -99,6 +99,10 @@ inline void add_to_cell(float3 x, float kap, float inv_coarse, __global const ul
     atomic_max(&kappa_max[s], as_uint(kap));
 }
 
+// Particles of a bin whose surface ones particle_curvature lists at a time (8 lanes for each
+// of the kBinGroup work-items of src/device_stages.cpp).
+#define SURFACE_CHUNK 64
+
 // What particle_curvature does with particle i's kappa: into its cell's sums, so that no array of n
 // floats is needed, and into kappa[i] only when the caller asked for them (tests, diagnostics).
 // Clamped at 0: 1 - n_i . n_j rounds below zero for parallel normals, and a negative kappa would
@@ -125,6 +129,8 @@ __kernel void particle_curvature(__global const float* sorted, __global const uc
                                  __global const ulong* cell_keys, ulong cell_capacity, volatile __global ulong* kappa_sum,
                                  volatile __global uint* kappa_count, volatile __global uint* kappa_max,
                                  __global float* kappa) {
+    __local uint surface_list[SURFACE_CHUNK];
+    __local uint surface_count[1];
     const uint lid = get_local_id(0), lsize = get_local_size(0);
     const uint first_bin = get_group_id(0) * per_group;
     for (uint ob = first_bin; ob < min(first_bin + per_group, occupied_count); ++ob) {
@@ -153,35 +159,50 @@ __kernel void particle_curvature(__global const float* sorted, __global const uc
             continue;
         }
         if (!SERIAL_GATHER) gather_normals(bin - 1, bin + 1, normals, flags, range, cand_normal, bin_first, bin_slot);
-        for (uint first = lid * 8; first < own.y; first += lsize * 8) {
-            float px[8], py[8], pz[8], nx[8], ny[8], nz[8];
-            uint ids[8];
-            for (int l = 0; l < 8; ++l) {  // spare lanes repeat the last particle
-                const uint i = own.x + min(first + l, own.y - 1);
-                const float3 x = vload3(i, sorted);
-                const float3 n = vload3(i, normals);
-                px[l] = x.x; py[l] = x.y; pz[l] = x.z; nx[l] = n.x; ny[l] = n.y; nz[l] = n.z; ids[l] = i;
+        // The lanes take the bin's surface particles only, SURFACE_CHUNK particles of the bin at a
+        // time: the others' kappa is 0 and adds to no cell, and a lane's sum does not depend on its
+        // partners, so the results keep their bits with about half the vector iterations (a bin
+        // holds some 14 particles at x64, a third of them on the surface).
+        const float inv_R = 1.0f / R;
+        for (uint chunk = 0; chunk < own.y; chunk += SURFACE_CHUNK) {
+            barrier(CLK_LOCAL_MEM_FENCE);  // the previous chunk's lanes are loaded
+            if (lid == 0) {
+                uint m = 0;
+                for (uint k = chunk; k < min(chunk + SURFACE_CHUNK, own.y); ++k) {
+                    const uint i = own.x + k;
+                    if (flags[i] & FLAG_SURFACE) surface_list[m++] = i;
+                    else if (keep_kappa) kappa[i] = 0.0f;
+                }
+                *surface_count = m;
             }
-            const float8 X = vload8(0, px), Y = vload8(0, py), Z = vload8(0, pz);
-            const float8 NX = vload8(0, nx), NY = vload8(0, ny), NZ = vload8(0, nz);
-            const uint8 I = vload8(0, ids);
-            float8 kap = 0.0f;
-            const float inv_R = 1.0f / R;
-            for (uint j = 0; j < n_cand; ++j) {
-                const float4 nj = cand_normal[j];
-                if (nj.w == 0.0f) continue;  // not a surface particle: the same for every lane
-                const float4 pj = cand[j];
-                const float8 dx = X - pj.x, dy = Y - pj.y, dz = Z - pj.z;
-                const float8 d = sqrt(dx * dx + dy * dy + dz * dz);
-                const int8 in = (d < R) & (I != (uint8)as_uint(pj.w));
-                const float8 term = (1.0f - (NX * nj.x + NY * nj.y + NZ * nj.z)) * (1.0f - d * inv_R);
-                kap += select((float8)(0.0f), term, in);
-            }
-            float out[8];
-            vstore8(kap, 0, out);
-            for (uint l = 0; l < 8 && first + l < own.y; ++l) {
-                const uint i = own.x + first + l;
-                CURVATURE_RESULT(i, (flags[i] & FLAG_SURFACE) ? out[l] : 0.0f);
+            barrier(CLK_LOCAL_MEM_FENCE);
+            const uint m = *surface_count;
+            for (uint first = lid * 8; first < m; first += lsize * 8) {
+                float px[8], py[8], pz[8], nx[8], ny[8], nz[8];
+                uint ids[8];
+                for (int l = 0; l < 8; ++l) {  // spare lanes repeat the last particle
+                    const uint i = surface_list[min(first + l, m - 1)];
+                    const float3 x = vload3(i, sorted);
+                    const float3 n = vload3(i, normals);
+                    px[l] = x.x; py[l] = x.y; pz[l] = x.z; nx[l] = n.x; ny[l] = n.y; nz[l] = n.z; ids[l] = i;
+                }
+                const float8 X = vload8(0, px), Y = vload8(0, py), Z = vload8(0, pz);
+                const float8 NX = vload8(0, nx), NY = vload8(0, ny), NZ = vload8(0, nz);
+                const uint8 I = vload8(0, ids);
+                float8 kap = 0.0f;
+                for (uint j = 0; j < n_cand; ++j) {
+                    const float4 nj = cand_normal[j];
+                    if (nj.w == 0.0f) continue;  // not a surface particle: the same for every lane
+                    const float4 pj = cand[j];
+                    const float8 dx = X - pj.x, dy = Y - pj.y, dz = Z - pj.z;
+                    const float8 d = sqrt(dx * dx + dy * dy + dz * dz);
+                    const int8 in = (d < R) & (I != (uint8)as_uint(pj.w));
+                    const float8 term = (1.0f - (NX * nj.x + NY * nj.y + NZ * nj.z)) * (1.0f - d * inv_R);
+                    kap += select((float8)(0.0f), term, in);
+                }
+                float out[8];
+                vstore8(kap, 0, out);
+                for (uint l = 0; l < 8 && first + l < m; ++l) CURVATURE_RESULT(surface_list[first + l], out[l]);
             }
         }
     }
