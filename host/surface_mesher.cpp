@@ -432,7 +432,8 @@ CrackRuns global_runs(const std::vector<ChunkOut>& chunks, const std::vector<std
 
 Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame& lattice_frame, const FinePointMap& field,
                        CrackClosing closing, std::size_t* collapsed,
-                       const std::function<void(const std::vector<float>&)>& beside_collapse, std::vector<std::uint32_t>* kept) {
+                       const std::function<void(const std::vector<float>&)>& beside_collapse, std::vector<std::uint32_t>* kept,
+                       const std::function<void()>& field_done) {
     if (lattice_frame.coarse_steps < 2 || lattice_frame.coarse_steps % 2)
         throw Error("triangulation: coarse_steps must be even");
     const CellIndex cell_index(cells);
@@ -477,6 +478,7 @@ Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame&
             number_vertices(chunks, ids, mesh);
         }
     }  // the index is freed before phase 3 allocates the mesh's triangles (the run's peak at x64)
+    if (field_done) field_done();  // and the field, which nothing below reads
 
     const CrackRuns runs = closing == CrackClosing::Collapse ? global_runs(chunks, ids) : CrackRuns{};
     // Phase 3: triangles with global indices, in chunk order.

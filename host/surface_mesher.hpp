@@ -23,11 +23,14 @@ namespace trilevel {
 /// `beside_collapse`, when set, is called with a copy of the vertex positions before the crack
 /// collapse, on another host thread while the (serial) collapse runs: no collapse moves a vertex,
 /// so what it computes per vertex holds for the vertices left, whose old indices `kept` receives
-/// (ascending; all of them under CrackClosing::Patches).
+/// (ascending; all of them under CrackClosing::Patches). `field_done`, when set, is called once
+/// `field` is read no more, before the triangles are assembled and the cracks collapsed, so that
+/// the caller can free it: the table and the collapse's crossing grid are then never alive at
+/// once (the peak of a large frame).
 Mesh triangulate_cells(const std::vector<CoarseCell>& cells, const LatticeFrame& lattice_frame,
                        const FinePointMap& field, CrackClosing closing = CrackClosing::Collapse,
                        std::size_t* collapsed = nullptr,
                        const std::function<void(const std::vector<float>&)>& beside_collapse = {},
-                       std::vector<std::uint32_t>* kept = nullptr);
+                       std::vector<std::uint32_t>* kept = nullptr, const std::function<void()>& field_done = {});
 
 }  // namespace trilevel

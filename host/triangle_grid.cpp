@@ -67,21 +67,27 @@ TriangleGrid::TriangleGrid(const Mesh& mesh, const std::vector<std::uint8_t>& de
             of[t] = std::uint32_t(index(k.x, k.y, k.z));
         }
     });
+    // start_[c + 1] counts cell c, is scanned into cell c's first entry and advanced over its
+    // entries while they are placed, which leaves it at cell c + 1's first: no second array of a
+    // word a cell (10 MB at x64) for the fill positions.
     start_.assign(count + 1, 0);
     for (std::uint32_t t = 0; t < nt; ++t)
         if (!dead[t]) ++start_[of[t] + 1];
-    for (std::size_t c = 0; c < count; ++c) start_[c + 1] += start_[c];
-    entry_.resize(start_[count]);
-    entry_lo_.resize(entry_.size());
-    entry_hi_.resize(entry_.size());
-    std::vector<std::uint32_t> fill(start_.begin(), start_.end() - 1);
+    std::uint32_t total = 0;
+    for (std::size_t c = 0; c < count; ++c) {  // start_[c + 1]: cell c's first entry
+        const std::uint32_t n = start_[c + 1];
+        start_[c + 1] = total;
+        total += n;
+    }
+    entry_.resize(total);
+    entry_lo_.resize(total);
+    entry_hi_.resize(total);
     for (std::uint32_t t = 0; t < nt; ++t) {
         if (dead[t]) continue;
-        const std::uint32_t i = fill[of[t]]++;
+        const std::uint32_t i = start_[of[t] + 1]++;
         entry_[i] = t;
         box(t, entry_lo_[i], entry_hi_[i]);
     }
-    moved_head_.assign(count, ~0u);
     moved_in_row_.assign(std::size_t(dims_.y) * std::size_t(dims_.z), 0);
 }
 
@@ -90,10 +96,15 @@ glm::ivec3 TriangleGrid::cell(glm::dvec3 p) const {
     return glm::ivec3(c);
 }
 
+void TriangleGrid::push(Local& list, std::uint32_t t, std::size_t c) {
+    list.tri_.push_back(t);
+    list.cell_.push_back(std::uint32_t(c));
+    list.next_.push_back(list.head(c));
+    list.set_head(c, std::uint32_t(list.tri_.size() - 1));
+}
+
 void TriangleGrid::relist_in_grid(std::uint32_t t, std::size_t c) {
-    moved_tri_.push_back(t);
-    moved_next_.push_back(moved_head_[c]);
-    moved_head_[c] = std::uint32_t(moved_tri_.size() - 1);
+    push(moved_, t, c);
     ++moved_in_row_[c / std::size_t(dims_.x)];
 }
 
@@ -108,10 +119,7 @@ void TriangleGrid::relist(std::uint32_t t, glm::dvec3 lo, glm::dvec3 hi, Local* 
         return;
     }
     // A Local's triangles must keep within reach(): queries of other threads use it unchanged.
-    local->tri_.push_back(t);
-    local->cell_.push_back(std::uint32_t(c));
-    local->next_.push_back(local->head(c));
-    local->set_head(c, std::uint32_t(local->tri_.size() - 1));
+    push(*local, t, c);
 }
 
 void TriangleGrid::Local::set_head(std::size_t cell, std::uint32_t entry) {

@@ -8,8 +8,10 @@
 //
 // Triangles whose corners change are listed again in per-cell lists: the grid's own, or a
 // Local's, where several threads move triangles at once in regions far apart (each query then
-// sees the grid's lists and its own thread's); adopt() moves a Local's into the grid's. Every
-// query runs with a Local, its own thread's (also its scratch).
+// sees the grid's lists and its own thread's); adopt() moves a Local's into the grid's. Both are
+// kept by a hash of the cells that hold any, not an array over the grid (two more words a cell,
+// 10 MB at x64, for the few cells a collapse touches). Every query runs with a Local, its own
+// thread's (also its scratch).
 #pragma once
 
 #include <algorithm>
@@ -82,14 +84,16 @@ private:
     // their boxes (floats hold the float positions' bounds exactly).
     std::vector<std::uint32_t> start_, entry_;
     std::vector<glm::vec3> entry_lo_, entry_hi_;
-    // Relisted triangles: a linked list per cell (moved_head_, moved_next_ over moved_tri_), and
-    // a count per x-row so that rows without any are skipped.
-    std::vector<std::uint32_t> moved_head_, moved_next_, moved_tri_, moved_in_row_;
+    // Relisted triangles: a linked list per cell (the grid's own Local), and a count per x-row so
+    // that rows without any are skipped.
+    Local moved_;
+    std::vector<std::uint32_t> moved_in_row_;
     std::vector<std::uint8_t> relisted_;  // per triangle: its first entry is stale
 
     glm::ivec3 cell(glm::dvec3 p) const;
     std::size_t index(int x, int y, int z) const { return (std::size_t(z) * std::size_t(dims_.y) + std::size_t(y)) * std::size_t(dims_.x) + std::size_t(x); }
     void relist_in_grid(std::uint32_t t, std::size_t c);
+    static void push(Local& list, std::uint32_t t, std::size_t c);
 };
 
 template <class Visit>
@@ -114,7 +118,7 @@ void TriangleGrid::for_each_near(glm::dvec3 lo, glm::dvec3 hi, Local& local, Vis
             }
             if (moved_in_row_[std::size_t(z) * std::size_t(dims_.y) + std::size_t(y)] != 0)
                 for (int x = c0.x; x <= c1.x; ++x)
-                    for (std::uint32_t k = moved_head_[row + std::size_t(x)]; k != ~0u; k = moved_next_[k]) report(moved_tri_[k]);
+                    for (std::uint32_t k = moved_.head(row + std::size_t(x)); k != ~0u; k = moved_.next_[k]) report(moved_.tri_[k]);
             if (local.used_ != 0)
                 for (int x = c0.x; x <= c1.x; ++x)
                     for (std::uint32_t k = local.head(row + std::size_t(x)); k != ~0u; k = local.next_[k]) report(local.tri_[k]);

@@ -37,11 +37,14 @@ public:
     MappedBuffer& operator=(const MappedBuffer&) = delete;
     ~MappedBuffer() { unmap_quietly(); }
 
-    /// Ends the map now (enqueued; the queue's next wait completes it). Nothing when not mapped.
+    /// Ends the map now (enqueued; the queue's next wait completes it) and drops this reference to
+    /// the buffer, so that a buffer the pool frees is freed then, not when the guard goes (the
+    /// unmap command holds it until it has run). Nothing when not mapped.
     void unmap() {
         if (!data_) return;
         T* p = std::exchange(data_, nullptr);
         queue_.enqueueUnmapMemObject(buffer_, p);
+        buffer_ = cl::Buffer();
     }
     bool mapped() const { return data_ != nullptr; }
     T* data() const { return data_; }
@@ -58,7 +61,7 @@ private:
     }
 
     cl::CommandQueue queue_;
-    cl::Buffer buffer_;  ///< a reference to the mapped buffer (retained while mapped), not a copy of its data
+    cl::Buffer buffer_;  ///< a reference to the mapped buffer (held while mapped), not a copy of its data
     T* data_ = nullptr;
 };
 

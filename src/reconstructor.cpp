@@ -711,11 +711,16 @@ Mesh Reconstructor::Impl::run_stages(const float* xyz, std::size_t n, const Para
             check_host(double(s.fine_points) * constants::kMeshBytesPerFinePoint, host,
                        "the mesh of " + std::to_string(s.fine_points) + " fine points");
             const bool beside = keep_levels && beside_crack_collapse;  // one lattice: its mesh is the frame's
+            // The table is given back once the cells are meshed, before the crack collapse builds its
+            // crossing grid (a first frame's pool frees it then): x64's peak was both at once.
+            auto release_table = [&] {
+                table.unmap(rt);
+                points = FinePoints{};
+                rt.set_stage("");
+            };
             mesh = triangulate_cells(cells, g.lattice, table.view, p.crack_closing, &s.crack_vertices_collapsed,
-                                     beside ? beside_crack_collapse : nullptr, beside ? &crack_kept : nullptr);
-            table.unmap(rt);
-            points = FinePoints{};
-            rt.set_stage("");  // a first frame's pool gives the table back now, not after the checks below
+                                     beside ? beside_crack_collapse : nullptr, beside ? &crack_kept : nullptr,
+                                     release_table);
         }
     }
     count_mesh(mesh, s);
