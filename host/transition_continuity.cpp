@@ -128,11 +128,25 @@ void apply_transition_continuity(const std::vector<CoarseCell>& cells, const Lat
     if (lattice_frame.coarse_steps % 2 != 0) throw Error("transition continuity: coarse_steps must be even");
     const CellIndex index(cells);
     const CellFixer fixer(index, lattice_frame.coarse_steps, field);
+    // The cells in the 3x3x3 blocks around the level-3 cells: only these level-2 cells can have a
+    // level-3 neighbour across a face or an edge. Level 3 is a few percent of the cells (x64: 5 k of
+    // 128 k), so one lookup here spares most level-2 cells fix()'s 18 to 42.
+    std::vector<CoarseCell> near_level3;
+    for (const CoarseCell& c : cells) {
+        if (c.level != 3) continue;
+        for (int dz = -1; dz <= 1; ++dz)
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx) {
+                    const glm::ivec3 n = c.coord + glm::ivec3(dx, dy, dz);
+                    if (n.x >= 0 && n.y >= 0 && n.z >= 0) near_level3.push_back({n, 3});
+                }
+    }
+    const CellIndex near(near_level3);
     tbb::enumerable_thread_specific<Scratch> scratch;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 256), [&](const auto& r) {
         Scratch& s = scratch.local();
         for (std::size_t i = r.begin(); i != r.end(); ++i)
-            if (cells[i].level == 2) fixer.fix(cells[i], s);
+            if (cells[i].level == 2 && near.level(cells[i].coord) != 0) fixer.fix(cells[i], s);
     });
 }
 
