@@ -19,6 +19,10 @@
 // plus CELL_CUBE_CENTRES where the level-2 check needs the centres of its level-2 cubes.
 #define CELL_LEVEL_MASK 3
 #define CELL_CUBE_CENTRES 4
+// From bit CELL_ABOVE_SHIFT, two bits for each of the 7 cells above it in the same list (d = 1..7:
+// +x by bit 0 of d, +y by bit 1, +z by bit 2, at bits CELL_ABOVE_SHIFT + 2 (d - 1)): the first
+// when that cell is in the list, the second when it is level 3 (scalar_field.cl, held_above).
+#define CELL_ABOVE_SHIFT 3
 
 // Bins a work-group's candidate gather spans at most (gather_candidates: its __local bin lists).
 #define MAX_BINS 64

@@ -202,6 +202,22 @@ inline void claim_refined_edges(int3 base, int cs, volatile __global fine_key_t*
     }
 }
 
+// Whether a cell above this one (towards +x, +y or +z, in the same list: w's CELL_ABOVE bits) also
+// holds the point at local offset o (odd coordinates: `odd`; `last` = the cell's last offset). Such
+// a point is inserted by a cell above, so that a point on the faces between cells is attempted
+// about once instead of by each of its 2 to 8 cells: among the cells holding it, those with no
+// holder above them insert it (at least one: the relation only goes up), and inserting is
+// idempotent, so the table ends with the same points. Level 2 holds the even points only.
+inline bool held_above(int w, int3 o, int last, int odd) {
+    const int up = (o.x == last) | ((o.y == last) << 1) | ((o.z == last) << 2);
+    for (int d = 1; d < 8 && up; ++d) {
+        if (d & ~up) continue;  // that cell does not hold the point
+        const int bits = w >> (CELL_ABOVE_SHIFT + 2 * (d - 1));
+        if ((bits & 1) && (odd == 0 || (bits & 2))) return true;
+    }
+    return false;
+}
+
 // Claim phase of scalar_field_cells: the points of cell c this work-group evaluates, by `claim`
 // (CLAIM_* in contract.h), as table slots in claimed[0 .. *claimed_count) in lattice order. Returns
 // false when the group evaluates nothing: its candidates do not fit (it raises `overflow`, and
@@ -228,6 +244,7 @@ inline bool claim_cell_points(int4 c, int coarse_steps, int claim, bool fits, vo
         if (!take) continue;
         const int3 point = c.xyz * coarse_steps + o;
         if (claim == CLAIM_INSERTED) {  // a point is evaluated by the work-group that created it
+            if (held_above(c.w, o, coarse_steps, odd)) continue;
             int created;
             const long slot = fine_insert(keys, capacity, point, shift, &created);
             if (slot < 0) atomic_or(&table_stats[0], 1);  // full: the host grows it and claims again

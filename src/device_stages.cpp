@@ -13,6 +13,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
+#include "core/cell_index.hpp"
 #include "kernel_contract.hpp"
 #include "kernel_launch.hpp"
 #include "stage_constants.hpp"
@@ -362,18 +363,28 @@ bool grew_after_insert(OpenCLRuntime& rt, FinePoints& p) {
 }
 
 /// Cells as int4 (x, y, z, level) on the device; level-2 cells flagged in `cube_centres` (empty or
-/// one flag per cell) carry contract::kCellCubeCentres in w.
+/// one flag per cell) carry contract::kCellCubeCentres in w, and with `mark_cells_above` the
+/// cells above each one in the list (contract.h, CELL_ABOVE_SHIFT: for the inserting field pass).
 /// `in_morton_order`: the cells in Morton order of their coordinates instead of the given order,
 /// where nothing but the work-groups' memory locality depends on it (neighbouring cells then
 /// run close in time, and their gathers and table lines are still in cache).
 DeviceBuffer cell_buffer(OpenCLRuntime& rt, const std::vector<CoarseCell>& cells,
-                         const std::vector<std::uint8_t>& cube_centres = {}, bool in_morton_order = false) {
-    std::vector<cl_int4> data;
-    for (std::size_t i = 0; i < cells.size(); ++i) {
-        const CoarseCell& c = cells[i];
-        data.push_back({{c.coord.x, c.coord.y, c.coord.z,
-                         c.level | (takes_cube_centres(cells, cube_centres, i) ? contract::kCellCubeCentres : 0)}});
-    }
+                         const std::vector<std::uint8_t>& cube_centres = {}, bool in_morton_order = false,
+                         bool mark_cells_above = false) {
+    std::vector<cl_int4> data(cells.size());
+    std::optional<CellIndex> index;
+    if (mark_cells_above) index.emplace(cells);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 4096), [&](const auto& r) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+            const CoarseCell& c = cells[i];
+            std::int32_t w = c.level | (takes_cube_centres(cells, cube_centres, i) ? contract::kCellCubeCentres : 0);
+            for (int d = 1; d < 8 && index; ++d) {
+                const int level = index->level(c.coord + glm::ivec3(d & 1, (d >> 1) & 1, (d >> 2) & 1));
+                if (level) w |= (level == 3 ? 3 : 1) << (contract::kCellAboveShift + 2 * (d - 1));
+            }
+            data[i] = {{c.coord.x, c.coord.y, c.coord.z, w}};
+        }
+    });
     if (in_morton_order) lattice::sort_by_morton(data, [](const cl_int4& c) { return glm::ivec3(c.s[0], c.s[1], c.s[2]); });
     return upload(rt, data, "cell list");
 }
@@ -451,7 +462,7 @@ void refine_and_evaluate(OpenCLRuntime& rt, FinePoints& p, const std::vector<Coa
     if (cells.empty()) return;
     if (!cube_centres.empty() && cube_centres.size() != cells.size())
         throw Error("internal: one cube-centre flag per refined cell expected");
-    const DeviceBuffer cell_buf = cell_buffer(rt, cells, cube_centres, true);
+    const DeviceBuffer cell_buf = cell_buffer(rt, cells, cube_centres, true, true);
     const std::size_t side = std::size_t(lattice_frame.coarse_steps + 1);
     const std::size_t work = cells.size() * side * side * side;
     if (work > std::numeric_limits<cl_uint>::max()) throw Error("too many fine points in one refinement pass");

@@ -20,6 +20,7 @@ constexpr std::uint32_t kCellSplash = CELL_SPLASH;
 /// The w of a cell in the device's int4 cell lists: level | kCellCubeCentres.
 constexpr std::int32_t kCellLevelMask = CELL_LEVEL_MASK;
 constexpr std::int32_t kCellCubeCentres = CELL_CUBE_CENTRES;
+constexpr int kCellAboveShift = CELL_ABOVE_SHIFT;
 
 /// __local list lengths the host allocates for the kernels.
 constexpr std::size_t kMaxBins = MAX_BINS;
@@ -45,6 +46,7 @@ constexpr bool inserts(ClaimPoints c) { return c == ClaimPoints::Inserted || c =
 #undef CELL_SPLASH
 #undef CELL_LEVEL_MASK
 #undef CELL_CUBE_CENTRES
+#undef CELL_ABOVE_SHIFT
 #undef MAX_BINS
 #undef MAX_CELL_POINTS
 #undef CLAIM_LEVEL
