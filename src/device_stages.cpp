@@ -378,10 +378,11 @@ DeviceBuffer cell_buffer(OpenCLRuntime& rt, const std::vector<CoarseCell>& cells
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
             const CoarseCell& c = cells[i];
             std::int32_t w = c.level | (takes_cube_centres(cells, cube_centres, i) ? contract::kCellCubeCentres : 0);
-            for (int d = 1; d < 8 && index; ++d) {
-                const int level = index->level(c.coord + glm::ivec3(d & 1, (d >> 1) & 1, (d >> 2) & 1));
-                if (level) w |= (level == 3 ? 3 : 1) << (contract::kCellAboveShift + 2 * (d - 1));
-            }
+            if (index)
+                for (int d = 1; d < 8; ++d) {
+                    const int level = index->level(c.coord + glm::ivec3(d & 1, (d >> 1) & 1, (d >> 2) & 1));
+                    if (level) w |= (level == 3 ? 3 : 1) << (contract::kCellAboveShift + 2 * (d - 1));
+                }
             data[i] = {{c.coord.x, c.coord.y, c.coord.z, w}};
         }
     });

@@ -820,8 +820,7 @@ std::shared_ptr<FrameTail> Reconstructor::Impl::mesh_owned(std::vector<float>&& 
     if (take) t->own_attributes = std::move(*take);
     else t->attributes = &attributes;  // read where they are
     if (params.particle_box) {  // filtered in place (the attributes: a copy); the rest runs on the particles inside
-        validate(params);
-        validate_attributes(*t->attributes, t->own_xyz.size() / 3);
+        validate_frame(params, t->own_xyz.size() / 3, *t->attributes);  // before the filter
         if (t->attributes != &t->own_attributes) {
             t->own_attributes = *t->attributes;
             t->attributes = &t->own_attributes;
