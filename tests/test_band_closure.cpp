@@ -4,6 +4,7 @@
 #include <random>
 
 #include "band_closure.hpp"
+#include "core/cell_index.hpp"
 #include "marching_cubes.hpp"
 #include "mesh_test_support.hpp"
 #include "surface_mesher.hpp"
@@ -215,4 +216,19 @@ TEST_CASE("transition continuity matches a brute-force reference on random mixed
         INFO("seed " << seed);
         CHECK(mismatches == 0);
     }
+}
+
+TEST_CASE("cell index: levels and list positions by coordinate, absent and negative coordinates") {
+    const std::vector<CoarseCell> cells = {{{3, 1, 4}, 2}, {{0, 0, 0}, 3}, {{1023, 7, 2}, 3}, {{3, 1, 5}, 2}};
+    const CellIndex index(cells);
+    for (std::size_t i = 0; i < cells.size(); ++i) {
+        CHECK(index.level(cells[i].coord) == cells[i].level);
+        CHECK(index.position(cells[i].coord) == std::int64_t(i));
+    }
+    for (const glm::ivec3 absent : {glm::ivec3(3, 1, 3), glm::ivec3(-1, 0, 0), glm::ivec3(0, -5, 2), glm::ivec3(1, 0, 0)}) {
+        CHECK(index.level(absent) == 0);
+        CHECK(index.position(absent) == -1);
+    }
+    const CellIndex empty(std::vector<CoarseCell>{});
+    CHECK(empty.position({0, 0, 0}) == -1);
 }

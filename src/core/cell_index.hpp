@@ -10,7 +10,8 @@
 
 namespace trilevel {
 
-/// Open-addressing set of coarse cells keyed by lattice::pack(coord), holding each cell's level.
+/// Open-addressing set of coarse cells keyed by lattice::pack(coord), holding each cell's level
+/// and its position in the list it was built from.
 class CellIndex {
 public:
     explicit CellIndex(const std::vector<CoarseCell>& cells) {
@@ -18,29 +19,42 @@ public:
         while (c < 2 * cells.size()) c *= 2;
         keys_.assign(c, lattice::kEmptyKey);
         levels_.assign(c, 0);
+        positions_.resize(c);
         mask_ = c - 1;
-        for (const CoarseCell& cell : cells) {
-            const std::uint64_t k = lattice::pack(cell.coord);
+        for (std::size_t i = 0; i < cells.size(); ++i) {
+            const std::uint64_t k = lattice::pack(cells[i].coord);
             std::uint64_t s = lattice::hash(k) & mask_;
             while (keys_[s] != lattice::kEmptyKey && keys_[s] != k) s = (s + 1) & mask_;
             keys_[s] = k;
-            levels_[s] = cell.level;
+            levels_[s] = cells[i].level;
+            positions_[s] = std::uint32_t(i);  // a repeated coordinate keeps its last
         }
     }
     /// The level of the cell at `coord`, or 0 when absent (negative coordinates are absent).
     int level(glm::ivec3 coord) const {
-        if (coord.x < 0 || coord.y < 0 || coord.z < 0) return 0;
-        const std::uint64_t k = lattice::pack(coord);
-        for (std::uint64_t s = lattice::hash(k) & mask_;; s = (s + 1) & mask_) {
-            if (keys_[s] == k) return levels_[s];
-            if (keys_[s] == lattice::kEmptyKey) return 0;
-        }
+        const std::int64_t s = slot(coord);
+        return s < 0 ? 0 : levels_[std::size_t(s)];
+    }
+    /// The position in the building list of the cell at `coord`, or -1 when absent.
+    std::int64_t position(glm::ivec3 coord) const {
+        const std::int64_t s = slot(coord);
+        return s < 0 ? -1 : std::int64_t(positions_[std::size_t(s)]);
     }
 
 private:
     std::vector<std::uint64_t> keys_;
     std::vector<std::uint8_t> levels_;
+    std::vector<std::uint32_t> positions_;
     std::uint64_t mask_ = 0;
+
+    std::int64_t slot(glm::ivec3 coord) const {
+        if (coord.x < 0 || coord.y < 0 || coord.z < 0) return -1;
+        const std::uint64_t k = lattice::pack(coord);
+        for (std::uint64_t s = lattice::hash(k) & mask_;; s = (s + 1) & mask_) {
+            if (keys_[s] == k) return std::int64_t(s);
+            if (keys_[s] == lattice::kEmptyKey) return -1;
+        }
+    }
 };
 
 /// Looks up `n` packed keys at once (FinePointMap::find_batch): out[i] = pointer to the value
