@@ -82,8 +82,12 @@ bool by_key_then_level_down(const CoarseCell& x, const CoarseCell& y) {
 
 std::vector<CoarseCell> band_closure_cells(const std::vector<CoarseCell>& cells, const LatticeFrame& lattice_frame,
                                            const FinePointMap& field) {
+    return band_closure_cells(cells, CellIndex(cells), lattice_frame, field);
+}
+
+std::vector<CoarseCell> band_closure_cells(const std::vector<CoarseCell>& cells, const CellIndex& index,
+                                           const LatticeFrame& lattice_frame, const FinePointMap& field) {
     const int cs = lattice_frame.coarse_steps;
-    const CellIndex index(cells);
     const FaceChecker checker(index, cs, field);
     tbb::enumerable_thread_specific<Scratch> scratch;
     std::vector<std::vector<CoarseCell>> found(cells.size());

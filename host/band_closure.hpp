@@ -4,6 +4,7 @@
 
 #include <vector>
 
+#include "core/cell_index.hpp"
 #include "core/coarse_cells.hpp"
 #include "core/fine_point_map.hpp"
 
@@ -18,5 +19,8 @@ namespace trilevel {
 /// again until the result is empty.
 std::vector<CoarseCell> band_closure_cells(const std::vector<CoarseCell>& cells, const LatticeFrame& lattice_frame,
                                            const FinePointMap& field);
+/// The same with `index`, a CellIndex of `cells` the caller already has.
+std::vector<CoarseCell> band_closure_cells(const std::vector<CoarseCell>& cells, const CellIndex& index,
+                                           const LatticeFrame& lattice_frame, const FinePointMap& field);
 
 }  // namespace trilevel

@@ -132,8 +132,12 @@ void CellFixer::fix(const CoarseCell& cell, Scratch& s) const {
 
 void apply_transition_continuity(const std::vector<CoarseCell>& cells, const LatticeFrame& lattice_frame,
                                  FinePointMap& field) {
+    apply_transition_continuity(cells, CellIndex(cells), lattice_frame, field);
+}
+
+void apply_transition_continuity(const std::vector<CoarseCell>& cells, const CellIndex& index,
+                                 const LatticeFrame& lattice_frame, FinePointMap& field) {
     if (lattice_frame.coarse_steps % 2 != 0) throw Error("transition continuity: coarse_steps must be even");
-    const CellIndex index(cells);
     const CellFixer fixer(index, lattice_frame.coarse_steps, field);
     // The level-2 cells in the 3x3x3 blocks around the level-3 cells: only these can have a
     // level-3 neighbour across a face or an edge. Level 3 is a few percent of the cells (x64: 5 k of

@@ -3,6 +3,7 @@
 
 #include <vector>
 
+#include "core/cell_index.hpp"
 #include "core/coarse_cells.hpp"
 #include "core/fine_point_map.hpp"
 
@@ -26,5 +27,8 @@ namespace trilevel {
 /// Throws Error when a level-2 point of such a cell is missing from `field`.
 void apply_transition_continuity(const std::vector<CoarseCell>& cells, const LatticeFrame& lattice_frame,
                                  FinePointMap& field);
+/// The same with `index`, a CellIndex of `cells` the caller already has (band closure takes the same one).
+void apply_transition_continuity(const std::vector<CoarseCell>& cells, const CellIndex& index,
+                                 const LatticeFrame& lattice_frame, FinePointMap& field);
 
 }  // namespace trilevel

@@ -245,8 +245,9 @@ MappedFinePoints close_band(OpenCLRuntime& rt, FinePoints& points, std::vector<C
         }
         {
             StageScope stage(s, "band_closure", rt);
-            apply_transition_continuity(cells, lattice_frame, table.view);
-            fresh = band_closure_cells(cells, lattice_frame, table.view);
+            const CellIndex index(cells);  // both read the same cells
+            apply_transition_continuity(cells, index, lattice_frame, table.view);
+            fresh = band_closure_cells(cells, index, lattice_frame, table.view);
         }
         if (fresh.empty()) return table;
         table.unmap(rt);
