@@ -83,6 +83,13 @@ for d in $GPU $CPU; do
 done
 echo "(frames/s = 12 / wall)"
 
+stamp "CLI sequence: the pipeline's finisher (frame k's triangulation beside frame k+1's device stages) off and on (12 frames, GPU)"
+for f in 0 1 0 1; do
+  TRILEVEL_PIPELINE_FINISHER=$f timed "sequence of 12, finisher $f" $T reconstruct "$W/in_{}.bgeo" -r $R \
+    -o "$W/plain_${f}_{}.ply" -q --device $GPU --threads 16
+done
+for k in $(seq 0 11); do cmp -s $W/plain_0_$k.ply $W/plain_1_$k.ply || echo "frame $k differs"; done
+
 stamp "CLI sequence with --smooth: the pipeline's finisher thread off and on (12 frames, GPU)"
 for f in 0 1 0 1; do
   TRILEVEL_PIPELINE_FINISHER=$f timed "smoothed sequence of 12, finisher $f" $T reconstruct "$W/in_{}.bgeo" -r $R \

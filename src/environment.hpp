@@ -80,11 +80,11 @@ struct EnvironmentOverrides {
     /// sequence. Default: pipelined.
     bool pipeline = true;
 
-    /// TRILEVEL_PIPELINE_FINISHER=0 or 1: a FramePipeline post-processes frame k on a thread of its
-    /// own while frame k+1 is meshed (pipeline.hpp), off or on. Read when a FramePipeline is made.
-    /// Default (unset): on where the device is not a CPU, whose stages already keep the host's
-    /// cores busy (on 2 cores it gained nothing measurable and held one more frame:
-    /// bench/RESULTS-sequences.md).
+    /// TRILEVEL_PIPELINE_FINISHER=0 or 1: a FramePipeline triangulates and post-processes frame k
+    /// on a thread of its own while frame k+1's device stages run (pipeline.hpp), off or on. Read
+    /// when a FramePipeline is made. Default (unset): on where the device is not a CPU, whose
+    /// stages already keep the host's cores busy (on 2 cores it gained nothing measurable and held
+    /// one more frame: bench/RESULTS-sequences.md).
     std::optional<bool> pipeline_finisher;
 };
 

@@ -1,10 +1,9 @@
 // FramePipeline (trilevel/pipeline.hpp): a worker thread meshes, a sink thread hands meshes on;
 // each hand-off is a rendezvous (one slot, the giver waits until the taker has it), so each stage
 // holds one frame and the memory in flight stays one input and one mesh above a frame at a time.
-// Where the frames are post-processed (smoothing, sliver cleanup, normals, ...), no memory limit
-// is set and the device is not a CPU, a finisher thread between them runs frame k's
-// post-processing, which is host work only, while the worker meshes frame k+1
-// (Reconstructor::mesh_then_finish).
+// Where no memory limit is set and the device is not a CPU, a finisher thread between them runs
+// frame k's host stages (triangulation, crack closing, post-processing) while the worker runs
+// frame k+1's device stages (Reconstructor::mesh_then_finish).
 #include "trilevel/pipeline.hpp"
 
 #include <condition_variable>
@@ -96,12 +95,11 @@ struct FramePipeline::Impl {
     Reconstructor& rec;
     const Params params;
     const Sink sink;
-    /// Whether frames go through the finisher: their post-processing has work (smoothing, sliver
-    /// cleanup, normals, component removal, clipping; attributes alone stay with the worker), no
-    /// memory limit is set (a frame in the finisher is one more mesh, and its post-processing's
-    /// arrays, in flight, which the limit's accounting does not count), and the device is not a
-    /// CPU (environment.hpp, TRILEVEL_PIPELINE_FINISHER): a CPU device's stages keep the host's
-    /// cores busy already.
+    /// Whether frames go through the finisher, which triangulates and post-processes them: no
+    /// memory limit is set (a frame in the finisher holds its cells, a host copy of its fine-point
+    /// table, its mesh and its post-processing's arrays, which the limit's accounting does not
+    /// count), and the device is not a CPU (environment.hpp, TRILEVEL_PIPELINE_FINISHER): a CPU
+    /// device's stages keep the host's cores busy already.
     const bool overlap;
     Rendezvous<Input> to_worker;
     Rendezvous<Meshed> to_finisher;
@@ -112,16 +110,11 @@ struct FramePipeline::Impl {
     bool finished = false;
     std::thread worker, finisher, sink_thread;
 
-    static bool has_post_processing(const Params& p) {
-        return p.smooth || p.sliver_cleanup || p.normals != NormalMode::None || p.remove_components_below > 0.0f || p.clip_box;
-    }
-
     Impl(Reconstructor& r, const Params& p, Sink s)
         : rec(r),
           params(p),
           sink(std::move(s)),
-          overlap(p.memory_limit_bytes == 0 && has_post_processing(p) &&
-                  environment().pipeline_finisher.value_or(r.device().type != "CPU")) {
+          overlap(p.memory_limit_bytes == 0 && environment().pipeline_finisher.value_or(r.device().type != "CPU")) {
         sink_thread = std::thread([this] { sink_loop(); });
         if (overlap) finisher = std::thread([this] { finisher_loop(); });
         worker = std::thread([this] { worker_loop(); });
@@ -137,7 +130,7 @@ struct FramePipeline::Impl {
                 try {
                     Params p = params;
                     if (p.memory_limit_bytes) p.memory_limit_bytes = frame_limit(held_mesh, input_bytes(in->xyz, in->attributes));
-                    out.finish = rec.mesh_then_finish(std::move(in->xyz), p, out.frame->stats, std::move(in->attributes));
+                    out.finish = rec.mesh_then_finish(std::move(in->xyz), p, out.frame->stats, std::move(in->attributes), overlap);
                 } catch (...) {
                     out.frame->stats = Stats{};
                     out.frame->error = std::current_exception();

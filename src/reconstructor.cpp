@@ -415,6 +415,11 @@ struct FrameTail {
     /// Post-processing, normals and attributes: world units, after any scaling or split.
     Mesh finish() {
         try {
+            if (triangulate) {  // deferred by the Reconstructor (Reconstructor::Impl::defer_triangulation)
+                const std::function<Mesh()> f = std::move(triangulate);
+                triangulate = nullptr;
+                mesh = f();
+            }
             const bool carried = crack_kept.size() == mesh.vertex_count() && !early_weights.empty();
             early_weights = carried ? kept_values(early_weights, crack_kept) : std::vector<float>{};
             std::vector<std::uint32_t>().swap(crack_kept);
@@ -449,6 +454,10 @@ struct FrameTail {
     bool keep_grid = false;
     std::vector<float> early_weights;       ///< the smoothing weights computed beside the crack collapse
     std::vector<std::uint32_t> crack_kept;  ///< the old index of each vertex the crack collapse left
+    /// Where the Reconstructor deferred the triangulation (FramePipeline): makes `mesh`, on the
+    /// thread that calls finish(). `defer`: whether the frame asked for that.
+    std::function<Mesh()> triangulate;
+    bool defer = false;
     Mesh mesh;
     Clock::time_point t0 = Clock::now();
     double compiled_ms = -1.0, loaded_ms = -1.0;
@@ -474,6 +483,10 @@ struct Reconstructor::Impl {
     /// triangulate_cells()); crack_kept then holds the old index of each vertex the collapse left.
     std::function<void(const std::vector<float>&)> beside_crack_collapse;
     std::vector<std::uint32_t> crack_kept;
+    /// The frame whose triangulation run_stages() leaves to its tail (FrameTail::triangulate):
+    /// set by mesh_frame() for a tail that asks (FramePipeline), where the mesh comes from one
+    /// lattice, unscaled (null otherwise).
+    FrameTail* defer_into = nullptr;
 
     // A frame's mesh, before post-processing, in three steps, each calling the next:
     /// Checks the radius against the particles and scales the lengths into the range the float
@@ -487,6 +500,12 @@ struct Reconstructor::Impl {
     /// domain, each on a lattice of its own).
     Mesh run_stages(const float* xyz, std::size_t n, const Params& p, const Grid& g, Stats& s, bool keep_levels = true);
     void remember_levels(const std::vector<CoarseCell>& cells, const Grid& g, const Params& p, Stats& s);
+    /// run_stages()' end for a deferred triangulation: the fine-point table copied to the host and
+    /// the device's buffers given back, the frame's levels and device figures recorded now (the
+    /// next frame's stages need the levels), and the triangulation left to `t`, which then reads
+    /// nothing of this Reconstructor (it may be meshing the next frame meanwhile).
+    void defer_triangulation(FrameTail& t, std::vector<CoarseCell>&& cells, const Grid& g, const Params& p,
+                             MappedFinePoints& table, FinePoints& points, Stats& s);
     /// reconstruct() up to the mesh, into t.mesh: checks, device stages, triangulation (the
     /// smoothing weights beside the crack collapse when t's post-processing needs them).
     void mesh_frame(FrameTail& t);
@@ -496,7 +515,7 @@ struct Reconstructor::Impl {
     /// filters them.
     std::shared_ptr<FrameTail> mesh_owned(std::vector<float>&& xyz, const Params& params, Stats& stats,
                                           const std::vector<ParticleAttribute>& attributes,
-                                          std::vector<ParticleAttribute>* take);
+                                          std::vector<ParticleAttribute>* take, bool defer_triangulation = false);
     /// Frees the handed-over positions once copied or uploaded, when `xyz` are they (a split
     /// domain's groups are copies, and its later groups still read the original).
     void release_input(const float* xyz) {
@@ -587,6 +606,7 @@ Mesh Reconstructor::Impl::mesh_in_float_range(const float* xyz, std::size_t n, c
     user_radius = p.particle_radius;
     const int k = length_scale_exponent(p.particle_radius);
     if (k == 0) return mesh_domain(xyz, n, p, s, b);
+    defer_into = nullptr;  // the mesh is scaled back below: triangulated now
     check_host(double(n) * 12, double(host_budget(p)), "a scaled copy of " + std::to_string(n) + " particles");
     std::vector<float> scaled(xyz, xyz + 3 * n);
     release_input(xyz);
@@ -704,6 +724,10 @@ Mesh Reconstructor::Impl::run_stages(const float* xyz, std::size_t n, const Para
             table = map_fine_points(rt, points);
             bins = BinnedParticles{};
         }
+        if (defer_into && keep_levels) {  // FramePipeline: triangulation later, on the tail's thread
+            defer_triangulation(*defer_into, std::move(cells), g, p, table, points, s);
+            return Mesh{};
+        }
         {
             StageScope stage(s, "triangulation", rt);
             s.surface_cells = cells.size();
@@ -732,6 +756,38 @@ Mesh Reconstructor::Impl::run_stages(const float* xyz, std::size_t n, const Para
     s.peak_memory_bytes = peak_rss_bytes();
     s.device_memory_bytes = rt.peak_lent_bytes();
     return mesh;
+}
+
+void Reconstructor::Impl::defer_triangulation(FrameTail& t, std::vector<CoarseCell>&& cells, const Grid& g,
+                                              const Params& p, MappedFinePoints& table, FinePoints& points, Stats& s) {
+    auto field = std::make_shared<FinePointMap>(FinePointMap::copy_of(table.view));  // ~8 bytes a fine point
+    table.unmap(rt);
+    points = FinePoints{};
+    remember_levels(cells, g, p, s);
+    for (auto& [name, ms] : rt.take_kernel_times()) s.kernel_ms.emplace_back(name, ms);
+    rt.set_stage("");
+    s.device_memory_bytes = rt.peak_lent_bytes();
+    // The same steps as run_stages()' "triangulation", on what the closure holds; the smoothing
+    // weights' hook and the collapse's kept vertices go straight to the tail.
+    t.triangulate = [&t, &s, cells = std::move(cells), lattice = g.lattice, closing = p.crack_closing, field,
+                     beside = beside_crack_collapse]() mutable {
+        Mesh mesh;
+        {
+            StageScope stage(s, "triangulation");
+            s.surface_cells = cells.size();
+            for (const auto& c : cells) (c.level == 2 ? s.surface_cells_level2 : s.surface_cells_level3)++;
+            count_points(*field, s);
+            check_host(double(s.fine_points) * constants::kMeshBytesPerFinePoint, double(host_budget(t.p)),
+                       "the mesh of " + std::to_string(s.fine_points) + " fine points");
+            mesh = triangulate_cells(cells, lattice, *field, closing, &s.crack_vertices_collapsed, beside,
+                                     beside ? &t.crack_kept : nullptr, [&] { *field = FinePointMap{}; });
+        }
+        std::vector<CoarseCell>().swap(cells);
+        count_mesh(mesh, s);
+        if (!postprocessed(t.p)) s.closed = is_closed_and_oriented(mesh);
+        s.peak_memory_bytes = peak_rss_bytes();
+        return mesh;
+    };
 }
 
 /// Counts the flips against the previous frame and keeps this frame's levels (adaptive mode;
@@ -804,19 +860,21 @@ Mesh Reconstructor::reconstruct(std::vector<float>&& xyz, const Params& params, 
 }
 
 std::function<Mesh()> Reconstructor::mesh_then_finish(std::vector<float>&& xyz, const Params& params, Stats& stats,
-                                                      std::vector<ParticleAttribute> attributes) {
-    std::shared_ptr<FrameTail> t = impl_->mesh_owned(std::move(xyz), params, stats, attributes, &attributes);
+                                                      std::vector<ParticleAttribute> attributes, bool defer_triangulation) {
+    std::shared_ptr<FrameTail> t =
+        impl_->mesh_owned(std::move(xyz), params, stats, attributes, &attributes, defer_triangulation);
     return [t] { return t->finish(); };
 }
 
 std::shared_ptr<FrameTail> Reconstructor::Impl::mesh_owned(std::vector<float>&& xyz, const Params& params, Stats& stats,
                                                            const std::vector<ParticleAttribute>& attributes,
-                                                           std::vector<ParticleAttribute>* take) {
+                                                           std::vector<ParticleAttribute>* take, bool defer_triangulation) {
     if (xyz.size() % 3 != 0)
         throw Error("positions: " + std::to_string(xyz.size()) + " floats are not x, y, z triplets");
     Params q = params;
     q.particle_box.reset();
     auto t = std::make_shared<FrameTail>(q, stats);
+    t->defer = defer_triangulation;
     t->own_xyz = std::move(xyz);
     if (take) t->own_attributes = std::move(*take);
     else t->attributes = &attributes;  // read where they are
@@ -876,6 +934,11 @@ void Reconstructor::Impl::mesh_frame(FrameTail& t) {
                 impl.crack_kept.clear();
             }
         } beside{*this};
+        struct Defer {  // nor the frame to defer to
+            Impl& impl;
+            ~Defer() { impl.defer_into = nullptr; }
+        } defer{*this};
+        defer_into = t.defer ? &t : nullptr;
         if (params.smooth && xyz && length_scale_exponent(params.particle_radius) == 0)
             beside_crack_collapse = [&t](const std::vector<float>& positions) {
                 t.early_weights = frame_weights(positions, t.grid, t.keep_grid, t.p);

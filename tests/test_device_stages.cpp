@@ -593,6 +593,51 @@ TEST_CASE("32-bit and 64-bit fine-point keys hold the same points with the same 
     CHECK(differ == 0);
 }
 
+TEST_CASE("a host copy of the mapped fine-point table keeps its key layout, slots and values after the unmap",
+          "[device][scalar_field][hash]") {
+    auto& rt = runtime();
+    const float r = 0.025f, R = 4 * r;
+    auto [x, b, c, order] = classify(r, R, 11);
+    const SurfaceCells sc = surface_cells(rt, b, c, r, R, 4 * r, 1e9f, 3);
+    REQUIRE(sc.cells.size() > 20);
+    for (bool narrow : {false, true}) {
+        INFO("32-bit keys: " << narrow);
+        LatticeFrame frame = adaptive_frame(r);
+        if (narrow) frame.keys = lattice::key_layout_for(glm::ivec3(200));
+        FinePoints points;
+        refine_and_evaluate(rt, points, sc.cells, frame, b, r, R);
+        MappedFinePoints table = map_fine_points(rt, points);
+        const FinePointMap copy = FinePointMap::copy_of(table.view);
+        table.unmap(rt);  // the view is gone; the copy holds its own arrays
+        points = FinePoints{};
+        const FinePointMap moved = FinePointMap(copy);  // copies of an owning map own theirs too
+        const FinePointMap host = test::read_fine_points(rt, [&] {
+            FinePoints again;
+            refine_and_evaluate(rt, again, sc.cells, frame, b, r, R);
+            return again;
+        }());
+        CHECK(copy.layout().wide == !narrow);
+        CHECK(copy.capacity() == host.capacity());
+        std::size_t held = 0, missing = 0;
+        for (std::size_t s = 0; s < copy.capacity(); ++s) {
+            const std::uint64_t key = copy.key_at(s);
+            if (key == lattice::kEmptyKey) continue;
+            ++held;
+            const float* a = host.find(key);
+            const float* m = moved.find(key);
+            missing += !a || !m || std::memcmp(a, &copy.values()[s], sizeof(float)) != 0 ||
+                       std::memcmp(m, &copy.values()[s], sizeof(float)) != 0;
+        }
+        CHECK(held > 1000);
+        CHECK(held == host.capacity() - [&] {
+                  std::size_t empty = 0;
+                  for (std::size_t s = 0; s < host.capacity(); ++s) empty += host.key_at(s) == lattice::kEmptyKey;
+                  return empty;
+              }());
+        CHECK(missing == 0);
+    }
+}
+
 namespace {
 
 /// An unjittered lattice block of spacing 2r (nx x ny x nz particles), rotated by `rot` about its

@@ -163,6 +163,82 @@ TEST_CASE("FramePipeline: post-processing beside the next frame's meshing gives 
     }
 }
 
+TEST_CASE("FramePipeline: triangulation beside the next frame's device stages gives the frame-by-frame meshes and stats",
+          "[pipeline]") {
+    // With the finisher on (TRILEVEL_PIPELINE_FINISHER=1 for a CPU device), frame k's triangulation
+    // and crack closing run on the finisher from a host copy of its fine-point table while the
+    // worker runs frame k+1's device stages, whose level history must already hold frame k's levels.
+    // Frame 2 is scaled far below the float kernels' range (triangulated in the worker, then scaled
+    // back) and frame 4 fails in the worker.
+    const ScopedEnv finisher("TRILEVEL_PIPELINE_FINISHER", "1");
+    const trilevel::Params p = sequence_params();
+    constexpr int kFrames = 6, kScaled = 2, kBad = 4;
+    constexpr float kScale = 1.0f / 1048576.0f;  // 2^-20: exact
+    auto frame = [&](int f) {
+        std::vector<float> xyz = falling_drop(f);
+        if (f == kBad) xyz[3 * 5] = std::numeric_limits<float>::infinity();
+        return xyz;
+    };
+    auto params_of = [&](int f) {
+        trilevel::Params q = p;
+        if (f == kScaled) q.particle_radius *= kScale;
+        return q;
+    };
+    auto scaled = [&](std::vector<float> xyz, int f) {
+        if (f == kScaled)
+            for (float& v : xyz) v *= kScale;
+        return xyz;
+    };
+    std::vector<trilevel::Mesh> expected(kFrames);
+    std::vector<trilevel::Stats> expected_stats(kFrames);
+    {
+        trilevel::Reconstructor rec;
+        for (int f = 0; f < kFrames; ++f)
+            if (f != kBad) expected[f] = rec.reconstruct(scaled(frame(f), f), params_of(f), &expected_stats[f]);
+    }
+    REQUIRE(expected_stats[1].crack_vertices_collapsed > 0);
+    // A pipeline takes one Params for every frame: the scaled frame goes through a pipeline of its own
+    // between the others, as a caller would, with the Reconstructor's history carried through.
+    trilevel::Reconstructor rec;
+    std::vector<trilevel::PipelineFrame> got;
+    auto run = [&](int first, int last, const trilevel::Params& q) {
+        trilevel::FramePipeline pipe(rec, q, [&](trilevel::PipelineFrame& f) { got.push_back(std::move(f)); });
+        for (int f = first; f <= last; ++f) pipe.push(scaled(frame(f), f));
+        pipe.finish();
+    };
+    run(0, 1, p);
+    run(2, 2, params_of(2));
+    run(3, kFrames - 1, p);
+    REQUIRE(got.size() == kFrames);
+    for (int f = 0; f < kFrames; ++f) {
+        INFO("frame " << f);
+        if (f == kBad) {
+            REQUIRE(got[f].error);
+            CHECK_THROWS_WITH(std::rethrow_exception(got[f].error), Catch::Contains("non-finite"));
+            continue;
+        }
+        REQUIRE_FALSE(got[f].error);
+        CHECK(same_mesh(got[f].mesh, expected[f]));
+        const trilevel::Stats &a = got[f].stats, &b = expected_stats[f];
+        CHECK(a.closed);
+        CHECK(a.triangles == b.triangles);
+        CHECK(a.fine_points == b.fine_points);
+        CHECK(a.fine_points_level3 == b.fine_points_level3);
+        CHECK(a.surface_cells == b.surface_cells);
+        CHECK(a.surface_cells_level3 == b.surface_cells_level3);
+        CHECK(a.crack_vertices_collapsed == b.crack_vertices_collapsed);
+        CHECK(a.level_history == b.level_history);
+        CHECK(a.level_flips == b.level_flips);
+        CHECK(a.level_held == b.level_held);
+        CHECK(a.device_memory_bytes == b.device_memory_bytes);
+        CHECK(a.kernel_ms.size() == b.kernel_ms.size());
+        std::vector<std::string> stages_a, stages_b;
+        for (const auto& [name, ms] : a.time_ms) stages_a.push_back(name);
+        for (const auto& [name, ms] : b.time_ms) stages_b.push_back(name);
+        CHECK(stages_a == stages_b);
+    }
+}
+
 TEST_CASE("FramePipeline: a frame reconstruct rejects fails alone, and a sink that throws stops the pipeline", "[pipeline]") {
     trilevel::Reconstructor rec;
     const trilevel::Params p = sequence_params();

@@ -35,13 +35,14 @@ struct PipelineFrame {
 };
 
 /// Three stages, one frame in each: the caller's (producing frame k+1), the worker's (meshing
-/// frame k with the Reconstructor) and the sink's (frame k-1). Where `params` post-process the
-/// meshes (smooth, sliver_cleanup, normals, remove_components_below, clip_box) and set no memory
-/// limit, and the device is not a CPU (TRILEVEL_PIPELINE_FINISHER=0 or 1 overrides that), a fourth
-/// stage, on its own thread, runs frame k's post-processing (host work only) while the worker
-/// meshes frame k+1; the meshes stay bit-identical. Memory: besides what one frame at a
+/// frame k with the Reconstructor) and the sink's (frame k-1). Where `params` set no memory limit
+/// and the device is not a CPU (TRILEVEL_PIPELINE_FINISHER=0 or 1 overrides that), a fourth
+/// stage, on its own thread, runs frame k's host stages (triangulation and crack closing from a
+/// host copy of its fine-point table, then post-processing) while the worker runs frame k+1's
+/// device stages; the meshes stay bit-identical. Memory: besides what one frame at a
 /// time holds, one more input (the frame the caller produces) and one more mesh (the one in the
-/// sink) are alive, and with the fourth stage the frame it post-processes. With Params::memory_limit_bytes set, each frame is meshed under the limit less
+/// sink) are alive, and with the fourth stage the frame it triangulates (its cells, fine-point
+/// table and mesh). With Params::memory_limit_bytes set, each frame is meshed under the limit less
 /// the bytes of those two: the mesh the sink still holds (its exact size) and the next input (taken
 /// as large as this frame's positions and attributes, which a steady sequence matches); a frame
 /// whose limit leaves nothing fails with an Error saying so. Frames are never meshed two at a time,

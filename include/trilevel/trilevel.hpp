@@ -324,12 +324,13 @@ public:
 
 private:
     friend class FramePipeline;
-    /// FramePipeline's split of reconstruct(std::vector<float>&&, ...): the stages up to the mesh
-    /// (device stages, triangulation, crack closing) run now; the host-only rest (post-processing,
-    /// normals, attributes) is returned, to be called once, on any thread, also while this
-    /// Reconstructor meshes the next frame. `stats` must stay where it is until then.
+    /// FramePipeline's split of reconstruct(std::vector<float>&&, ...): the device stages run now;
+    /// the host-only rest (post-processing, normals, attributes, and with `defer_triangulation`
+    /// the triangulation and crack closing too, where the frame is meshed on one lattice) is
+    /// returned, to be called once, on any thread, also while this Reconstructor meshes the next
+    /// frame. `stats` must stay where it is until then.
     std::function<Mesh()> mesh_then_finish(std::vector<float>&& xyz, const Params& params, Stats& stats,
-                                           std::vector<ParticleAttribute> attributes);
+                                           std::vector<ParticleAttribute> attributes, bool defer_triangulation);
     struct Impl;
     std::unique_ptr<Impl> impl_;
 };

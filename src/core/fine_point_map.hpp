@@ -37,6 +37,18 @@ public:
         return m;
     }
 
+    /// A table of its own holding what `m` holds now, in m's layout and slots (for a frame whose
+    /// host stages run after its device buffers went back to the pool: FramePipeline).
+    static FinePointMap copy_of(const FinePointMap& m) {
+        FinePointMap c;
+        const std::size_t words = m.layout_.wide ? m.capacity_ : m.capacity_ / 2;  // 4-byte keys: two a word (capacity: a multiple of 8)
+        const auto* k = static_cast<const std::uint64_t*>(m.keys_);
+        c.own_keys_.assign(k, k + words);
+        c.own_values_.assign(m.values_, m.values_ + m.capacity_);
+        c.bind(c.own_keys_.data(), c.own_values_.data(), m.capacity_, m.layout_, true);
+        return c;
+    }
+
     FinePointMap(const FinePointMap& o) : own_keys_(o.own_keys_), own_values_(o.own_values_) { rebind(o); }
     FinePointMap(FinePointMap&& o) noexcept
         : own_keys_(std::move(o.own_keys_)), own_values_(std::move(o.own_values_)) {
@@ -140,7 +152,7 @@ private:
     }
     void bind_own() { bind(own_keys_.data(), own_values_.data(), own_keys_.size(), lattice::KeyLayout{}, true); }
     void rebind(const FinePointMap& o) {
-        if (o.owning_) bind_own();
+        if (o.owning_) bind(own_keys_.data(), own_values_.data(), o.capacity_, o.layout_, true);
         else bind(o.keys_, o.values_, o.capacity_, o.layout_, false);
     }
 };
