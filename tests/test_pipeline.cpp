@@ -29,6 +29,13 @@ std::vector<float> falling_drop(int frame) {
     return trilevel::generate_scene("falling-drop", 0.025f, 1, frame).positions;
 }
 
+/// The stages a frame's statistics time, in their order.
+std::vector<std::string> stage_names(const trilevel::Stats& s) {
+    std::vector<std::string> names;
+    for (const auto& [name, ms] : s.time_ms) names.push_back(name);
+    return names;
+}
+
 std::size_t files_in(const std::string& dir) {
     std::size_t n = 0;
     for (const auto& e : std::filesystem::directory_iterator(dir)) n += e.is_regular_file();
@@ -155,11 +162,8 @@ TEST_CASE("FramePipeline: post-processing beside the next frame's meshing gives 
         CHECK(a.sliver_edges_collapsed == b.sliver_edges_collapsed);
         CHECK(a.smoothing_reverted_moves == b.smoothing_reverted_moves);
         CHECK(a.level_flips == b.level_flips);
-        std::vector<std::string> stages_a, stages_b;
-        for (const auto& [name, ms] : a.time_ms) stages_a.push_back(name);
-        for (const auto& [name, ms] : b.time_ms) stages_b.push_back(name);
-        CHECK(stages_a == stages_b);
-        CHECK(stages_a.back() == "total");
+        CHECK(stage_names(a) == stage_names(b));
+        CHECK(stage_names(a).back() == "total");
     }
 }
 
@@ -232,10 +236,7 @@ TEST_CASE("FramePipeline: triangulation beside the next frame's device stages gi
         CHECK(a.level_held == b.level_held);
         CHECK(a.device_memory_bytes == b.device_memory_bytes);
         CHECK(a.kernel_ms.size() == b.kernel_ms.size());
-        std::vector<std::string> stages_a, stages_b;
-        for (const auto& [name, ms] : a.time_ms) stages_a.push_back(name);
-        for (const auto& [name, ms] : b.time_ms) stages_b.push_back(name);
-        CHECK(stages_a == stages_b);
+        CHECK(stage_names(a) == stage_names(b));
     }
 }
 
