@@ -1,5 +1,7 @@
 """trilevel.FramePipeline: the meshes of Reconstructor.reconstruct frame by frame, in frame order."""
+import os
 import unittest
+from unittest import mock
 
 import numpy as np
 
@@ -37,6 +39,27 @@ class FramePipelineTest(unittest.TestCase):
             self.assertTrue(np.array_equal(v, ev))
             self.assertTrue(np.array_equal(t, et))
             self.assertEqual(stats.get("level_flips"), estats.get("level_flips"))
+
+    def test_triangulation_on_the_finisher_gives_the_same_meshes(self):
+        # TRILEVEL_PIPELINE_FINISHER=1: each frame is triangulated on the pipeline's finisher thread
+        # while the next frame's device stages run (the GPU default), here on the CPU device.
+        expected = []
+        one = trilevel.Reconstructor()
+        for f in range(4):
+            expected.append(one.reconstruct(drop(f), 0.025, level_hysteresis=0.2))
+        with mock.patch.dict(os.environ, {"TRILEVEL_PIPELINE_FINISHER": "1"}):
+            pipe = trilevel.FramePipeline(trilevel.Reconstructor(), 0.025, level_hysteresis=0.2)
+            got = []
+            for f in range(4):
+                got += pipe.push(drop(f))
+            got += pipe.finish()
+        self.assertEqual([g[0] for g in got], list(range(4)))
+        for (index, v, t, stats), (ev, et, estats) in zip(got, expected):
+            self.assertTrue(np.array_equal(v, ev))
+            self.assertTrue(np.array_equal(t, et))
+            self.assertTrue(stats["closed"])
+            self.assertEqual(stats.get("level_flips"), estats.get("level_flips"))
+            self.assertEqual(stats["fine_points"], estats["fine_points"])
 
     def test_post_processing_keywords_as_in_reconstruct(self):
         box = (0.1, 0.0, 0.1, 0.9, 1.0, 0.9)
