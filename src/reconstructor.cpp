@@ -455,9 +455,8 @@ struct FrameTail {
     std::vector<float> early_weights;       ///< the smoothing weights computed beside the crack collapse
     std::vector<std::uint32_t> crack_kept;  ///< the old index of each vertex the crack collapse left
     /// Where the Reconstructor deferred the triangulation (FramePipeline): makes `mesh`, on the
-    /// thread that calls finish(). `defer`: whether the frame asked for that.
+    /// thread that calls finish().
     std::function<Mesh()> triangulate;
-    bool defer = false;
     Mesh mesh;
     Clock::time_point t0 = Clock::now();
     double compiled_ms = -1.0, loaded_ms = -1.0;
@@ -483,9 +482,9 @@ struct Reconstructor::Impl {
     /// triangulate_cells()); crack_kept then holds the old index of each vertex the collapse left.
     std::function<void(const std::vector<float>&)> beside_crack_collapse;
     std::vector<std::uint32_t> crack_kept;
-    /// The frame whose triangulation run_stages() leaves to its tail (FrameTail::triangulate):
-    /// set by mesh_frame() for a tail that asks (FramePipeline), where the mesh comes from one
-    /// lattice, unscaled (null otherwise).
+    /// The frame whose triangulation run_stages() leaves to its tail (FrameTail::triangulate): set
+    /// by mesh_frame() where asked (FramePipeline) and the mesh is unscaled; run_stages() takes it
+    /// only for a whole frame's lattice (keep_levels), not a split domain's groups.
     FrameTail* defer_into = nullptr;
 
     // A frame's mesh, before post-processing, in three steps, each calling the next:
@@ -507,8 +506,10 @@ struct Reconstructor::Impl {
     void defer_triangulation(FrameTail& t, std::vector<CoarseCell>&& cells, const Grid& g, const Params& p,
                              MappedFinePoints& table, FinePoints& points, Stats& s);
     /// reconstruct() up to the mesh, into t.mesh: checks, device stages, triangulation (the
-    /// smoothing weights beside the crack collapse when t's post-processing needs them).
-    void mesh_frame(FrameTail& t);
+    /// smoothing weights beside the crack collapse when t's post-processing needs them), the
+    /// triangulation left to t.triangulate with `defer_triangulation` where the mesh comes from
+    /// one unscaled lattice.
+    void mesh_frame(FrameTail& t, bool defer_triangulation = false);
     /// reconstruct(std::vector<float>&&)'s stages up to the mesh, with the positions held by the
     /// returned tail (Params::particle_box applied to them first). The attributes are read where
     /// they are, or taken over from `take` where given (FramePipeline), or copied where the box
@@ -540,6 +541,28 @@ void check_host(double bytes, double budget, const std::string& what) {
         throw Error(what + " needs ~" + io::byte_size_text(std::uint64_t(bytes)) + " of host memory, over the budget of " +
                     io::byte_size_text(std::uint64_t(budget)) +
                     " (--memory-limit or the available RAM); use a larger cell or a smaller domain");
+}
+
+/// Stage "triangulation" of a frame's cells (the caller times it): the cell and point counts, the
+/// check against `host_bytes` of host memory, then triangulate_cells() (surface_mesher.hpp), whose hooks it passes on.
+Mesh triangulate_frame(const std::vector<CoarseCell>& cells, const LatticeFrame& lattice, const FinePointMap& field,
+                       const Params& p, double host_bytes, Stats& s,
+                       const std::function<void(const std::vector<float>&)>& beside_collapse,
+                       std::vector<std::uint32_t>* kept, const std::function<void()>& field_done) {
+    s.surface_cells = cells.size();
+    for (const auto& c : cells) (c.level == 2 ? s.surface_cells_level2 : s.surface_cells_level3)++;
+    count_points(field, s);
+    check_host(double(s.fine_points) * constants::kMeshBytesPerFinePoint, host_bytes,
+               "the mesh of " + std::to_string(s.fine_points) + " fine points");
+    return triangulate_cells(cells, lattice, field, p.crack_closing, &s.crack_vertices_collapsed, beside_collapse, kept,
+                             field_done);
+}
+
+/// The mesh's counts and, where no post-processing changes it afterwards (it checks the mesh
+/// itself then), whether the mesh is closed.
+void count_mesh_and_check(const Mesh& mesh, const Params& p, Stats& s) {
+    count_mesh(mesh, s);
+    if (!postprocessed(p)) s.closed = is_closed_and_oriented(mesh);
 }
 
 /// Adds the counts and times of one group's reconstruction to the frame's (split domains).
@@ -606,7 +629,6 @@ Mesh Reconstructor::Impl::mesh_in_float_range(const float* xyz, std::size_t n, c
     user_radius = p.particle_radius;
     const int k = length_scale_exponent(p.particle_radius);
     if (k == 0) return mesh_domain(xyz, n, p, s, b);
-    defer_into = nullptr;  // the mesh is scaled back below: triangulated now
     check_host(double(n) * 12, double(host_budget(p)), "a scaled copy of " + std::to_string(n) + " particles");
     std::vector<float> scaled(xyz, xyz + 3 * n);
     release_input(xyz);
@@ -730,11 +752,6 @@ Mesh Reconstructor::Impl::run_stages(const float* xyz, std::size_t n, const Para
         }
         {
             StageScope stage(s, "triangulation", rt);
-            s.surface_cells = cells.size();
-            for (const auto& c : cells) (c.level == 2 ? s.surface_cells_level2 : s.surface_cells_level3)++;
-            count_points(table.view, s);
-            check_host(double(s.fine_points) * constants::kMeshBytesPerFinePoint, host,
-                       "the mesh of " + std::to_string(s.fine_points) + " fine points");
             const bool beside = keep_levels && beside_crack_collapse;  // one lattice: its mesh is the frame's
             // The table is given back once the cells are meshed, before the crack collapse builds its
             // crossing grid (a first frame's pool frees it then): x64's peak was both at once.
@@ -743,13 +760,11 @@ Mesh Reconstructor::Impl::run_stages(const float* xyz, std::size_t n, const Para
                 points = FinePoints{};
                 rt.set_stage("");
             };
-            mesh = triangulate_cells(cells, g.lattice, table.view, p.crack_closing, &s.crack_vertices_collapsed,
-                                     beside ? beside_crack_collapse : nullptr, beside ? &crack_kept : nullptr,
-                                     release_table);
+            mesh = triangulate_frame(cells, g.lattice, table.view, p, host, s, beside ? beside_crack_collapse : nullptr,
+                                     beside ? &crack_kept : nullptr, release_table);
         }
     }
-    count_mesh(mesh, s);
-    if (!postprocessed(p)) s.closed = is_closed_and_oriented(mesh);  // else checked after post-processing
+    count_mesh_and_check(mesh, p, s);
     if (keep_levels) remember_levels(cells, g, p, s);
     for (auto& [name, ms] : rt.take_kernel_times()) s.kernel_ms.emplace_back(name, ms);
     rt.set_stage("");
@@ -760,31 +775,24 @@ Mesh Reconstructor::Impl::run_stages(const float* xyz, std::size_t n, const Para
 
 void Reconstructor::Impl::defer_triangulation(FrameTail& t, std::vector<CoarseCell>&& cells, const Grid& g,
                                               const Params& p, MappedFinePoints& table, FinePoints& points, Stats& s) {
-    auto field = std::make_shared<FinePointMap>(FinePointMap::copy_of(table.view));  // ~8 bytes a fine point
+    FinePointMap field = FinePointMap::copy_of(table.view);  // 8 bytes a slot with 32-bit keys
     table.unmap(rt);
     points = FinePoints{};
     remember_levels(cells, g, p, s);
     for (auto& [name, ms] : rt.take_kernel_times()) s.kernel_ms.emplace_back(name, ms);
     rt.set_stage("");
     s.device_memory_bytes = rt.peak_lent_bytes();
-    // The same steps as run_stages()' "triangulation", on what the closure holds; the smoothing
-    // weights' hook and the collapse's kept vertices go straight to the tail.
-    t.triangulate = [&t, &s, cells = std::move(cells), lattice = g.lattice, closing = p.crack_closing, field,
+    // run_stages()' "triangulation" on what the closure holds; the smoothing weights' hook and the
+    // collapse's kept vertices go straight to the tail.
+    t.triangulate = [&t, &s, cells = std::move(cells), lattice = g.lattice, field = std::move(field),
                      beside = beside_crack_collapse]() mutable {
         Mesh mesh;
         {
             StageScope stage(s, "triangulation");
-            s.surface_cells = cells.size();
-            for (const auto& c : cells) (c.level == 2 ? s.surface_cells_level2 : s.surface_cells_level3)++;
-            count_points(*field, s);
-            check_host(double(s.fine_points) * constants::kMeshBytesPerFinePoint, double(host_budget(t.p)),
-                       "the mesh of " + std::to_string(s.fine_points) + " fine points");
-            mesh = triangulate_cells(cells, lattice, *field, closing, &s.crack_vertices_collapsed, beside,
-                                     beside ? &t.crack_kept : nullptr, [&] { *field = FinePointMap{}; });
+            mesh = triangulate_frame(cells, lattice, field, t.p, double(host_budget(t.p)), s, beside,
+                                     beside ? &t.crack_kept : nullptr, [&] { field = FinePointMap{}; });
         }
-        std::vector<CoarseCell>().swap(cells);
-        count_mesh(mesh, s);
-        if (!postprocessed(t.p)) s.closed = is_closed_and_oriented(mesh);
+        count_mesh_and_check(mesh, t.p, s);
         s.peak_memory_bytes = peak_rss_bytes();
         return mesh;
     };
@@ -874,7 +882,6 @@ std::shared_ptr<FrameTail> Reconstructor::Impl::mesh_owned(std::vector<float>&& 
     Params q = params;
     q.particle_box.reset();
     auto t = std::make_shared<FrameTail>(q, stats);
-    t->defer = defer_triangulation;
     t->own_xyz = std::move(xyz);
     if (take) t->own_attributes = std::move(*take);
     else t->attributes = &attributes;  // read where they are
@@ -893,7 +900,7 @@ std::shared_ptr<FrameTail> Reconstructor::Impl::mesh_owned(std::vector<float>&& 
         Impl& impl;
         ~Forget() { impl.handed_over = nullptr; }
     } forget{*this};
-    mesh_frame(*t);
+    mesh_frame(*t, defer_triangulation);
     return t;
 }
 
@@ -911,7 +918,7 @@ Mesh Reconstructor::reconstruct(const float* xyz, std::size_t count, const Param
     return t.finish();
 }
 
-void Reconstructor::Impl::mesh_frame(FrameTail& t) {
+void Reconstructor::Impl::mesh_frame(FrameTail& t, bool defer_triangulation) {
     const float* xyz = t.xyz;
     const std::size_t count = t.count;
     const Params& params = t.p;
@@ -925,21 +932,19 @@ void Reconstructor::Impl::mesh_frame(FrameTail& t) {
     // starts clean, and no partial mesh is returned.
     try {
         t.keep_grid = gradient_normals_wanted(params) || !t.attributes->empty();
-        // The smoothing weights, computed beside the crack collapse where the mesh comes from one
-        // unscaled lattice (a host core waits there otherwise); else post-processing computes them.
-        struct Beside {  // whatever happens, the hook does not outlive this frame
+        struct Hooks {  // whatever happens, the hooks do not outlive this frame
             Impl& impl;
-            ~Beside() {
+            ~Hooks() {
                 impl.beside_crack_collapse = nullptr;
                 impl.crack_kept.clear();
+                impl.defer_into = nullptr;
             }
-        } beside{*this};
-        struct Defer {  // nor the frame to defer to
-            Impl& impl;
-            ~Defer() { impl.defer_into = nullptr; }
-        } defer{*this};
-        defer_into = t.defer ? &t : nullptr;
-        if (params.smooth && xyz && length_scale_exponent(params.particle_radius) == 0)
+        } hooks{*this};
+        const bool unscaled = length_scale_exponent(params.particle_radius) == 0;  // the mesh is the lattice's
+        if (defer_triangulation && unscaled) defer_into = &t;
+        // The smoothing weights, computed beside the crack collapse where the mesh comes from one
+        // unscaled lattice (a host core waits there otherwise); else post-processing computes them.
+        if (params.smooth && xyz && unscaled)
             beside_crack_collapse = [&t](const std::vector<float>& positions) {
                 t.early_weights = frame_weights(positions, t.grid, t.keep_grid, t.p);
             };
