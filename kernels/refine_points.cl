@@ -15,6 +15,16 @@ inline bool cell_has_point(int w, int odd) {
     return cell_level(w) != 2 || odd == 0 || ((w & CELL_CUBE_CENTRES) && odd == 3);
 }
 
+// Local offset (x, y, z) of the l-th point of a cube `side` points wide, x fastest, without an
+// integer division (the lattice loops take three per point, which cost as much as the rest of the
+// loop on CPUs): l / side as (l * recip) >> 32, recip = lattice_reciprocal(side), which is exact for
+// l < 2^32 / side, so for every point of a cube up to 255 points wide.
+inline ulong lattice_reciprocal(int side) { return (0x100000000UL + (ulong)side - 1) / (ulong)side; }
+inline int3 lattice_offset(int l, int side, ulong recip) {
+    const int q = (int)(((ulong)l * recip) >> 32), z = (int)(((ulong)q * recip) >> 32);
+    return (int3)(l - q * side, q - z * side, z);
+}
+
 // cells: x, y, z = coarse coordinates, w = level (| CELL_CUBE_CENTRES). One work-item per (cell, local point).
 __kernel void refine_points(__global const int4* cells, uint cell_count, int coarse_steps,
                             volatile __global fine_key_t* keys, ulong capacity, volatile __global int* stats,
@@ -25,7 +35,7 @@ __kernel void refine_points(__global const int4* cells, uint cell_count, int coa
     if (gid >= cell_count * per_cell) return;
     int4 c = cells[gid / per_cell];
     int l = (int)(gid % per_cell);
-    int3 o = (int3)(l % side, (l / side) % side, l / (side * side));
+    int3 o = lattice_offset(l, side, lattice_reciprocal(side));
     if (!cell_has_point(c.w, (o.x & 1) + (o.y & 1) + (o.z & 1))) return;
     int3 p = c.xyz * coarse_steps + o;
     fine_insert_counted(keys, capacity, p, shift, stats);

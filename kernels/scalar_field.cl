@@ -145,24 +145,49 @@ __kernel void scalar_field(__global const uint* pending, uint count, __global co
 #define NOT_CLAIMED 0xffffffffu
 
 // The candidates within R of the box around the eight points X, Y, Z, in candidate order, as
-// indices into `cand`. The others lie beyond every lane's support and would add exact zeros, so
-// the sums keep their bits; sorting them out costs a few scalar operations per candidate against
-// some forty vector ones, and a branch-free loop (a skip inside the sum loop mispredicts about as
-// often as it saves). Points in lattice order span about a 4r x r slab: a third of the 27 bins'
-// candidates remain.
-inline uint near_candidates(float8 X, float8 Y, float8 Z, __local const float4* cand, uint n_cand, float R2,
-                            ushort* near) {
-    const float3 lo = (float3)(min_lane(X), min_lane(Y), min_lane(Z));
-    const float3 hi = (float3)(max_lane(X), max_lane(Y), max_lane(Z));
+// indices into the candidate list. The others lie beyond every lane's support and would add exact
+// zeros, so the sums keep their bits; sorting them out costs a few operations per candidate
+// against some forty vector ones, and a branch-free loop (a skip inside the sum loop mispredicts
+// about as often as it saves). Points in lattice order span about a 4r x r slab: a third of the
+// 27 bins' candidates remain. Eight candidates are tested at once, one per lane, from the
+// candidates' coordinates in columns (cx, cy, cz: padded to a multiple of 8 with far points).
+inline uint near_candidates(float8 X, float8 Y, float8 Z, __local const float* cx, __local const float* cy,
+                            __local const float* cz, uint n_cand, float R2, ushort* near) {
+    const float lox = min_lane(X), loy = min_lane(Y), loz = min_lane(Z);
+    const float hix = max_lane(X), hiy = max_lane(Y), hiz = max_lane(Z);
     const float keep2 = R2 * 1.0625f;  // a margin for rounding: a few extra zeros cost nothing
     uint n = 0;
-    for (uint j = 0; j < n_cand; ++j) {
-        const float3 p = cand[j].xyz;
-        const float3 d = fmax(fmax(lo - p, p - hi), (float3)(0.0f));
-        near[n] = (ushort)j;
-        n += dot(d, d) <= keep2;
+    for (uint j = 0; j < n_cand; j += 8) {
+        const float8 px = vload8(0, cx + j), py = vload8(0, cy + j), pz = vload8(0, cz + j);
+        const float8 dx = fmax(fmax(lox - px, px - hix), 0.0f);
+        const float8 dy = fmax(fmax(loy - py, py - hiy), 0.0f);
+        const float8 dz = fmax(fmax(loz - pz, pz - hiz), 0.0f);
+        const int8 keep = dx * dx + dy * dy + dz * dz <= keep2;  // true is -1
+        near[n] = (ushort)j; n -= keep.s0;
+        near[n] = (ushort)(j + 1); n -= keep.s1;
+        near[n] = (ushort)(j + 2); n -= keep.s2;
+        near[n] = (ushort)(j + 3); n -= keep.s3;
+        near[n] = (ushort)(j + 4); n -= keep.s4;
+        near[n] = (ushort)(j + 5); n -= keep.s5;
+        near[n] = (ushort)(j + 6); n -= keep.s6;
+        near[n] = (ushort)(j + 7); n -= keep.s7;
     }
     return n;
+}
+
+// The candidates' coordinates in columns for near_candidates, padded to a multiple of 8 with points
+// beyond any support (their squared distance overflows to infinity). All work-items call it.
+#define CANDIDATE_COLUMN ((MAX_CANDIDATES + 7) / 8 * 8)
+inline void candidate_columns(__local const float4* cand, uint n_cand, __local float* columns) {
+    const uint lid = get_local_id(0), lsize = get_local_size(0);
+    const uint padded = (n_cand + 7) / 8 * 8;
+    for (uint k = lid; k < padded; k += lsize) {
+        const float4 p = k < n_cand ? cand[k] : (float4)(1e30f);
+        columns[k] = p.x;
+        columns[CANDIDATE_COLUMN + k] = p.y;
+        columns[2 * CANDIDATE_COLUMN + k] = p.z;
+    }
+    barrier(CLK_LOCAL_MEM_FENCE);
 }
 
 // Which pending points of its cell a work-group claims: CLAIM_* in contract.h.
@@ -180,14 +205,15 @@ inline void claim_refined_edges(int3 base, int cs, volatile __global fine_key_t*
                                     volatile __global int* table_stats) {
     const uint lid = get_local_id(0), lsize = get_local_size(0);
     const int m = cs / 2 + 1, mm = m * m;  // level-2 points per axis
+    const ulong recip = lattice_reciprocal(m);
     for (int l = (int)lid; l < mm * m; l += (int)lsize) {
-        const int3 o = (int3)(l % m, (l / m) % m, l / mm) * 2;
+        const int3 o = lattice_offset(l, m, recip) * 2;
         const long slot = fine_find((const __global fine_key_t*)keys, capacity, base + o, shift);
         corner[l] = slot < 0 ? as_float(PENDING_BITS) : as_float(value_bits[slot]);  // NaN: no crossing
     }
     barrier(CLK_LOCAL_MEM_FENCE);
     for (int l = (int)lid; l < mm * m; l += (int)lsize) {  // each corner and its edges towards +x, +y, +z
-        const int3 o = (int3)(l % m, (l / m) % m, l / mm);
+        const int3 o = lattice_offset(l, m, recip);
         const float va = corner[l];
         for (int axis = 0; axis < 3; ++axis) {
             const int3 d = (int3)(axis == 0, axis == 1, axis == 2);
@@ -229,6 +255,7 @@ inline bool claim_cell_points(int4 c, int coarse_steps, int claim, bool fits, vo
     const uint lid = get_local_id(0), lsize = get_local_size(0);
     const int side = coarse_steps + 1;
     const int points = side * side * side;
+    const ulong recip = lattice_reciprocal(side);
     const bool creates = claim == CLAIM_INSERTED || claim == CLAIM_REFINED_EDGES;  // the points this group created
     if (!fits && !creates) {
         if (lid == 0) atomic_or(overflow, 1);
@@ -238,7 +265,7 @@ inline bool claim_cell_points(int4 c, int coarse_steps, int claim, bool fits, vo
     barrier(CLK_LOCAL_MEM_FENCE);
     for (int l = (int)lid; l < points && claim != CLAIM_REFINED_EDGES; l += (int)lsize) {  // claim the cell's pending points
         if (fits) claimed[l] = NOT_CLAIMED;
-        int3 o = (int3)(l % side, (l / side) % side, l / (side * side));
+        int3 o = lattice_offset(l, side, recip);
         const int odd = (o.x & 1) + (o.y & 1) + (o.z & 1);
         const bool take = claim == CLAIM_EDGE_MIDPOINTS ? odd == 1 : cell_has_point(c.w, odd);
         if (!take) continue;
@@ -277,11 +304,12 @@ inline bool claim_cell_points(int4 c, int coarse_steps, int claim, bool fits, vo
 // The field at the n_claimed points of `claimed` (table slots) from the n_cand candidates in local
 // memory: each work-item takes LANES points at once, one per vector lane.
 inline void evaluate_claimed(__local const uint* claimed, uint n_claimed, __local const float4* cand, uint n_cand,
-                             volatile __global fine_key_t* keys, volatile __global uint* value_bits, float step,
-                             float r, float R, uint2 shift) {
+                             __local float* columns, volatile __global fine_key_t* keys,
+                             volatile __global uint* value_bits, float step, float r, float R, uint2 shift) {
     const uint lid = get_local_id(0), lsize = get_local_size(0);
     const float R2 = R * R, inv_R2 = 1.0f / R2;
-    ushort near[MAX_CANDIDATES];
+    candidate_columns(cand, n_cand, columns);
+    ushort near[CANDIDATE_COLUMN];
     for (uint first = lid * LANES; first < n_claimed; first += lsize * LANES) {
         float px[LANES], py[LANES], pz[LANES];
         for (int l = 0; l < LANES; ++l) {  // spare lanes repeat the last point
@@ -289,7 +317,8 @@ inline void evaluate_claimed(__local const uint* claimed, uint n_claimed, __loca
             px[l] = x.x; py[l] = x.y; pz[l] = x.z;
         }
         const float8 X = vload8(0, px), Y = vload8(0, py), Z = vload8(0, pz);
-        const uint n_near = near_candidates(X, Y, Z, cand, n_cand, R2, near);
+        const uint n_near = near_candidates(X, Y, Z, columns, columns + CANDIDATE_COLUMN, columns + 2 * CANDIDATE_COLUMN,
+                                            n_cand, R2, near);
         float8 K = 0.0f, Sx = 0.0f, Sy = 0.0f, Sz = 0.0f, Gx = 0.0f, Gy = 0.0f, Gz = 0.0f;
         float8 Axx = 0.0f, Axy = 0.0f, Axz = 0.0f, Ayx = 0.0f, Ayy = 0.0f, Ayz = 0.0f, Azx = 0.0f, Azy = 0.0f,
                Azz = 0.0f;
@@ -331,7 +360,8 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
                                  __global const uint2* range, float r, float R, volatile __global int* overflow,
                                  __local float4* cand, __local uint* bin_first, __local uint* bin_slot,
                                  __local uint* count, __local uint* claimed, __local uint* claimed_count,
-                                 int cells_are_bins, volatile __global int* table_stats, uint2 shift) {
+                                 int cells_are_bins, volatile __global int* table_stats, uint2 shift,
+                                 __local float* columns) {
     const int4 c = cells[get_group_id(0)];
     const uint lid = get_local_id(0);
     if (claim == CLAIM_REFINED_EDGES) {  // first the midpoints: a cell that creates none gathers nothing
@@ -360,5 +390,5 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
     if (!claim_cell_points(c, coarse_steps, claim, fits, keys, capacity, value_bits, overflow, claimed, claimed_count,
                            table_stats, shift))
         return;
-    evaluate_claimed(claimed, *claimed_count, cand, n_cand, keys, value_bits, step, r, R, shift);
+    evaluate_claimed(claimed, *claimed_count, cand, n_cand, columns, keys, value_bits, step, r, R, shift);
 }
