@@ -176,13 +176,14 @@ inline uint near_candidates(float8 X, float8 Y, float8 Z, __local const float* c
 }
 
 // The candidates' coordinates in columns for near_candidates, padded to a multiple of 8 with points
-// beyond any support (their squared distance overflows to infinity). All work-items call it.
+// beyond any support (at 1e18 in the frame's coordinates, which lie within 2^20 steps of the
+// origin: their squared distance, about 1e36, is finite and far above R^2). All work-items call it.
 #define CANDIDATE_COLUMN ((MAX_CANDIDATES + 7) / 8 * 8)
 inline void candidate_columns(__local const float4* cand, uint n_cand, __local float* columns) {
     const uint lid = get_local_id(0), lsize = get_local_size(0);
     const uint padded = (n_cand + 7) / 8 * 8;
     for (uint k = lid; k < padded; k += lsize) {
-        const float4 p = k < n_cand ? cand[k] : (float4)(1e30f);
+        const float4 p = k < n_cand ? cand[k] : (float4)(1e18f);
         columns[k] = p.x;
         columns[CANDIDATE_COLUMN + k] = p.y;
         columns[2 * CANDIDATE_COLUMN + k] = p.z;
