@@ -73,21 +73,19 @@ __kernel void color_field(__global const float* sorted, __global const uint* occ
         }
         for (uint first = lid * 8; first < own.y; first += lsize * 8) {
             float px[8], py[8], pz[8];
-            uint ids[8];
             for (int l = 0; l < 8; ++l) {  // spare lanes repeat the last particle
                 const uint i = own.x + min(first + l, own.y - 1);
                 const float3 x = vload3(i, sorted);
-                px[l] = x.x; py[l] = x.y; pz[l] = x.z; ids[l] = i;
+                px[l] = x.x; py[l] = x.y; pz[l] = x.z;
             }
             const float8 X = vload8(0, px), Y = vload8(0, py), Z = vload8(0, pz);
-            const uint8 I = vload8(0, ids);
             float8 gx = 0.0f, gy = 0.0f, gz = 0.0f;
             int8 nb = 0;
             for (uint j = 0; j < n_cand; ++j) {
                 const float4 pj = cand[j];
                 const float8 dx = X - pj.x, dy = Y - pj.y, dz = Z - pj.z;
                 const float8 d2 = dx * dx + dy * dy + dz * dz;
-                const int8 in = (d2 < R2) & (I != (uint8)as_uint(pj.w));
+                const int8 in = d2 < R2;  // the particle itself too: it adds 0 * w and is no neighbour (d2 = 0)
                 const float8 q = select((float8)(0.0f), R2 - d2, in);
                 const float8 w = grad_norm * q * q;
                 gx += w * dx; gy += w * dy; gz += w * dz;
