@@ -157,7 +157,7 @@ inline uint near_candidates(float8 X, float8 Y, float8 Z, __local const float* c
     const float hix = max_lane(X), hiy = max_lane(Y), hiz = max_lane(Z);
     const float keep2 = R2 * 1.0625f;  // a margin for rounding: a few extra zeros cost nothing
     uint n = 0;
-    for (uint j = 0; j < n_cand; j += 8) {
+    for (uint j = 0; j < n_cand; j += LANES) {  // float8: LANES is 8
         const float8 px = vload8(0, cx + j), py = vload8(0, cy + j), pz = vload8(0, cz + j);
         const float8 dx = fmax(fmax(lox - px, px - hix), 0.0f);
         const float8 dy = fmax(fmax(loy - py, py - hiy), 0.0f);
@@ -175,14 +175,14 @@ inline uint near_candidates(float8 X, float8 Y, float8 Z, __local const float* c
     return n;
 }
 
-// The candidates' coordinates in columns for near_candidates, padded to a multiple of 8 with points
+// The candidates' coordinates in columns for near_candidates, padded to whole vectors with points
 // beyond any support (at 1e18 in the frame's coordinates, which lie within 2^20 steps of the
 // origin: their squared distance, about 1e36, is finite and far above R^2). All work-items call it.
-#define CANDIDATE_COLUMN ((MAX_CANDIDATES + 7) / 8 * 8)
+#define WHOLE_LANES(n) (((n) + LANES - 1) / LANES * LANES)
+#define CANDIDATE_COLUMN WHOLE_LANES(MAX_CANDIDATES)  // each column's length (host: contract::candidate_column)
 inline void candidate_columns(__local const float4* cand, uint n_cand, __local float* columns) {
     const uint lid = get_local_id(0), lsize = get_local_size(0);
-    const uint padded = (n_cand + 7) / 8 * 8;
-    for (uint k = lid; k < padded; k += lsize) {
+    for (uint k = lid; k < WHOLE_LANES(n_cand); k += lsize) {
         const float4 p = k < n_cand ? cand[k] : (float4)(1e18f);
         columns[k] = p.x;
         columns[CANDIDATE_COLUMN + k] = p.y;

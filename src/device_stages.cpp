@@ -426,7 +426,7 @@ CellPass run_cell_pass(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_
                                 b.sorted, 1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.capacity), b.range, r, R, overflow,
                                 candidate_lists(rt), kernels::Local<cl_uint>{contract::kMaxCellPoints},
                                 kernels::Local<cl_uint>{1}, cells_are_bins, p.hash.stats, key_shifts(p.layout),
-                                kernels::Local<cl_float>{3 * ((rt.max_candidates() + 7) / 8 * 8)});
+                                kernels::Local<cl_float>{3 * contract::candidate_column(rt.max_candidates())});
     CellPass pass;
     pass.overflow = read_buffer<cl_int>(rt, overflow, 1)[0] != 0;
     if (contract::inserts(claim)) {

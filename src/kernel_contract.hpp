@@ -25,6 +25,9 @@ constexpr int kCellAboveShift = CELL_ABOVE_SHIFT;
 /// __local list lengths the host allocates for the kernels.
 constexpr std::size_t kMaxBins = MAX_BINS;
 constexpr std::size_t kMaxCellPoints = MAX_CELL_POINTS;
+/// Length of each of scalar_field_cells' three candidate coordinate columns (CANDIDATE_COLUMN in
+/// scalar_field.cl): the candidate limit rounded up to whole vectors of 8.
+constexpr std::size_t candidate_column(std::size_t max_candidates) { return (max_candidates + 7) / 8 * 8; }
 
 /// Which pending points of its cell a work-group of scalar_field_cells claims.
 enum class ClaimPoints : std::int32_t {

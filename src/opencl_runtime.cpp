@@ -183,7 +183,8 @@ void OpenCLRuntime::init() {
     work_group_ = std::min(work_group_, device_.getInfo<CL_DEVICE_MAX_WORK_GROUP_SIZE>());
     const EnvironmentOverrides env = environment();
     if (env.work_group) work_group_ = *env.work_group;
-    // Two float4 lists plus the bin tables and the scalar field's claimed-point list (4 KiB).
+    // 32 bytes a candidate: two float4 lists (or one and the scalar field's three float columns),
+    // plus the bin tables and the scalar field's claimed-point list (4 KiB).
     const std::uint64_t local = device_.getInfo<CL_DEVICE_LOCAL_MEM_SIZE>();
     max_candidates_ = std::size_t(std::min<std::uint64_t>(2048, local > 8192 ? (local - 8192) / 32 : 64));
     if (env.max_candidates) max_candidates_ = std::min(max_candidates_, *env.max_candidates);  // tests: force the fallbacks
