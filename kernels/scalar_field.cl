@@ -4,7 +4,7 @@
 //   phi = |x - xbar| - r f(EVmax), EVmax = largest real part of the eigenvalues of J = d xbar / dx.
 // Sums use y_j = x_j - x (translation invariant, better float precision):
 //   J = (sum y_j (x) grad k_j - ybar (x) sum grad k_j) / K,  grad k_j = -6 (1 - s_j^2)^2 (x - x_j) / R^2.
-// Build options: EV_LOW, EV_HIGH.
+// Build options: EV_LOW, EV_HIGH, FIELD_LANES (8 or 16: points a work-item evaluates at once).
 // Uses: contract.h (CLAIM_*, MAX_CELL_POINTS), hash_table.cl, particle_binning.cl (gather_candidates),
 // refine_points.cl (cell_level, cell_has_point).
 
@@ -33,45 +33,70 @@ inline float largest_real_eigenvalue(float3 a, float3 b, float3 c) {
     return max(u1, -0.5f * u1) + s;
 }
 
+// The points' vectors in scalar_field_cells: FIELD_LANES lanes, one point each. 16 where the device
+// prefers 16-wide float vectors (AVX-512 CPUs: a 16-wide FMA costs 1.25x an 8-wide one), else 8
+// (GPUs, whose lanes are work-items: each vector lane is a register there).
+#if FIELD_LANES == 16
+typedef float16 floatL;
+typedef int16 intL;
+#define vloadL vload16
+#define vstoreL vstore16
+#else
+typedef float8 floatL;
+typedef int8 intL;
+#define vloadL vload8
+#define vstoreL vstore8
+#endif
+
 // dot(a, cross(b, c)) per lane, rounded as the scalar builtins round it on PoCL (no contraction
 // into fused multiply-adds), so that both kernels take the same branch of the closed form.
-inline float8 triple_product8(float8 ax, float8 ay, float8 az, float8 bx, float8 by, float8 bz, float8 cx, float8 cy,
-                              float8 cz) {
+inline floatL triple_productL(floatL ax, floatL ay, floatL az, floatL bx, floatL by, floatL bz, floatL cx, floatL cy,
+                              floatL cz) {
 #pragma OPENCL FP_CONTRACT OFF
-    const float8 kx = by * cz - bz * cy, ky = bz * cx - bx * cz, kz = bx * cy - by * cx;
+    const floatL kx = by * cz - bz * cy, ky = bz * cx - bx * cz, kz = bx * cy - by * cx;
     return ax * kx + ay * ky + az * kz;
 }
 
-// largest_real_eigenvalue for eight matrices at once, one per vector lane (rows a, b, c by
+// largest_real_eigenvalue for FIELD_LANES matrices at once, one per vector lane (rows a, b, c by
 // component), with the scalar function's expressions. Both closed forms are evaluated and each
 // lane selects its own: vector acos, cos and cbrt cost far less than eight scalar calls. They round
 // differently from the scalar forms now and then (docs/design.md, "Eigenvalues in vector form").
-inline float8 largest_real_eigenvalue8(float8 ax, float8 ay, float8 az, float8 bx, float8 by, float8 bz, float8 cx,
-                                       float8 cy, float8 cz) {
-    const float8 t = ax + by + cz;
-    const float8 m = (ax * by - ay * bx) + (ax * cz - az * cx) + (by * cz - bz * cy);
-    const float8 d = triple_product8(ax, ay, az, bx, by, bz, cx, cy, cz);
-    const float8 s = t / 3.0f;
-    const float8 p = m - t * s;
-    const float8 q = -d + m * s - 2.0f * s * s * s;
-    const float8 disc = 0.25f * q * q + p * p * p / 27.0f;
-    const int8 three_real = (disc <= 0.0f) & (p < 0.0f);
-    const float8 rho = sqrt(select((float8)(1.0f), -p / 3.0f, three_real));
-    const float8 arg = clamp(-q / (2.0f * rho * rho * rho), -1.0f, 1.0f);
-    const float8 trig = 2.0f * rho * cos(acos(arg) / 3.0f) + s;
-    const float8 sq = sqrt(max(disc, 0.0f));
-    const float8 u1 = cbrt(-0.5f * q + sq) + cbrt(-0.5f * q - sq);
+inline floatL largest_real_eigenvalueL(floatL ax, floatL ay, floatL az, floatL bx, floatL by, floatL bz, floatL cx,
+                                       floatL cy, floatL cz) {
+    const floatL t = ax + by + cz;
+    const floatL m = (ax * by - ay * bx) + (ax * cz - az * cx) + (by * cz - bz * cy);
+    const floatL d = triple_productL(ax, ay, az, bx, by, bz, cx, cy, cz);
+    const floatL s = t / 3.0f;
+    const floatL p = m - t * s;
+    const floatL q = -d + m * s - 2.0f * s * s * s;
+    const floatL disc = 0.25f * q * q + p * p * p / 27.0f;
+    const intL three_real = (disc <= 0.0f) & (p < 0.0f);
+    const floatL rho = sqrt(select((floatL)(1.0f), -p / 3.0f, three_real));
+    const floatL arg = clamp(-q / (2.0f * rho * rho * rho), -1.0f, 1.0f);
+    const floatL trig = 2.0f * rho * cos(acos(arg) / 3.0f) + s;
+    const floatL sq = sqrt(max(disc, 0.0f));
+    const floatL u1 = cbrt(-0.5f * q + sq) + cbrt(-0.5f * q - sq);
     return select(max(u1, -0.5f * u1) + s, trig, three_real);
 }
 
-inline float min_lane(float8 v) {
-    const float4 a = fmin(v.lo, v.hi);
+inline float min_lane(floatL v) {
+#if FIELD_LANES == 16
+    const float8 e = fmin(v.lo, v.hi);
+#else
+    const float8 e = v;
+#endif
+    const float4 a = fmin(e.lo, e.hi);
     const float2 b = fmin(a.lo, a.hi);
     return fmin(b.x, b.y);
 }
 
-inline float max_lane(float8 v) {
-    const float4 a = fmax(v.lo, v.hi);
+inline float max_lane(floatL v) {
+#if FIELD_LANES == 16
+    const float8 e = fmax(v.lo, v.hi);
+#else
+    const float8 e = v;
+#endif
+    const float4 a = fmax(e.lo, e.hi);
     const float2 b = fmax(a.lo, a.hi);
     return fmax(b.x, b.y);
 }
@@ -133,7 +158,7 @@ __kernel void scalar_field(__global const uint* pending, uint count, __global co
 // edge refinement) by the work-group whose insert created it, which spares a separate insert
 // pass and a second table lookup per point; in the other passes
 // by the work-group that claims it first (its NaN "pending" value becomes CLAIMED). Each
-// work-item then evaluates LANES claimed points at once, one per vector lane: every lane adds its
+// work-item then evaluates FIELD_LANES claimed points at once, one per vector lane: every lane adds its
 // neighbours in candidate order (bins in z, y, x order, each in index order), so a point's value
 // does not depend on its lane or its partners. A cell whose candidates do not fit claims nothing
 // (what it inserted stays pending) and raises `overflow`; the host then lets the other cells claim
@@ -141,23 +166,23 @@ __kernel void scalar_field(__global const uint* pending, uint count, __global co
 // point depends only on the cells, never on timing.
 #define PENDING_BITS 0x7fc00000u
 #define CLAIMED_BITS 0x7fc00001u
-#define LANES 8
+#define COLUMN_LANES 8  // candidates near_candidates tests at once
 #define NOT_CLAIMED 0xffffffffu
 
-// The candidates within R of the box around the eight points X, Y, Z, in candidate order, as
+// The candidates within R of the box around the points X, Y, Z, in candidate order, as
 // indices into the candidate list. The others lie beyond every lane's support and would add exact
 // zeros, so the sums keep their bits; sorting them out costs a few operations per candidate
 // against some forty vector ones, and a branch-free loop (a skip inside the sum loop mispredicts
 // about as often as it saves). Points in lattice order span about a 4r x r slab: a third of the
 // 27 bins' candidates remain. Eight candidates are tested at once, one per lane, from the
 // candidates' coordinates in columns (cx, cy, cz: padded to a multiple of 8 with far points).
-inline uint near_candidates(float8 X, float8 Y, float8 Z, __local const float* cx, __local const float* cy,
+inline uint near_candidates(floatL X, floatL Y, floatL Z, __local const float* cx, __local const float* cy,
                             __local const float* cz, uint n_cand, float R2, ushort* near) {
     const float lox = min_lane(X), loy = min_lane(Y), loz = min_lane(Z);
     const float hix = max_lane(X), hiy = max_lane(Y), hiz = max_lane(Z);
     const float keep2 = R2 * 1.0625f;  // a margin for rounding: a few extra zeros cost nothing
     uint n = 0;
-    for (uint j = 0; j < n_cand; j += LANES) {  // float8: LANES is 8
+    for (uint j = 0; j < n_cand; j += COLUMN_LANES) {  // float8: COLUMN_LANES is 8
         const float8 px = vload8(0, cx + j), py = vload8(0, cy + j), pz = vload8(0, cz + j);
         const float8 dx = fmax(fmax(lox - px, px - hix), 0.0f);
         const float8 dy = fmax(fmax(loy - py, py - hiy), 0.0f);
@@ -178,7 +203,7 @@ inline uint near_candidates(float8 X, float8 Y, float8 Z, __local const float* c
 // The candidates' coordinates in columns for near_candidates, padded to whole vectors with points
 // beyond any support (at 1e18 in the frame's coordinates, which lie within 2^20 steps of the
 // origin: their squared distance, about 1e36, is finite and far above R^2). All work-items call it.
-#define WHOLE_LANES(n) (((n) + LANES - 1) / LANES * LANES)
+#define WHOLE_LANES(n) (((n) + COLUMN_LANES - 1) / COLUMN_LANES * COLUMN_LANES)
 #define CANDIDATE_COLUMN WHOLE_LANES(MAX_CANDIDATES)  // each column's length (host: contract::candidate_column)
 inline void candidate_columns(__local const float4* cand, uint n_cand, __local float* columns) {
     const uint lid = get_local_id(0), lsize = get_local_size(0);
@@ -303,7 +328,7 @@ inline bool claim_cell_points(int4 c, int coarse_steps, int claim, bool fits, vo
 }
 
 // The field at the n_claimed points of `claimed` (table slots) from the n_cand candidates in local
-// memory: each work-item takes LANES points at once, one per vector lane.
+// memory: each work-item takes FIELD_LANES points at once, one per vector lane.
 inline void evaluate_claimed(__local const uint* claimed, uint n_claimed, __local const float4* cand, uint n_cand,
                              __local float* columns, volatile __global fine_key_t* keys,
                              volatile __global uint* value_bits, float step, float r, float R, uint2 shift) {
@@ -311,27 +336,27 @@ inline void evaluate_claimed(__local const uint* claimed, uint n_claimed, __loca
     const float R2 = R * R, inv_R2 = 1.0f / R2;
     candidate_columns(cand, n_cand, columns);
     ushort near[CANDIDATE_COLUMN];
-    for (uint first = lid * LANES; first < n_claimed; first += lsize * LANES) {
-        float px[LANES], py[LANES], pz[LANES];
-        for (int l = 0; l < LANES; ++l) {  // spare lanes repeat the last point
+    for (uint first = lid * FIELD_LANES; first < n_claimed; first += lsize * FIELD_LANES) {
+        float px[FIELD_LANES], py[FIELD_LANES], pz[FIELD_LANES];
+        for (int l = 0; l < FIELD_LANES; ++l) {  // spare lanes repeat the last point
             float3 x = convert_float3(fine_point(keys[claimed[min(first + l, n_claimed - 1)]], shift)) * step;
             px[l] = x.x; py[l] = x.y; pz[l] = x.z;
         }
-        const float8 X = vload8(0, px), Y = vload8(0, py), Z = vload8(0, pz);
+        const floatL X = vloadL(0, px), Y = vloadL(0, py), Z = vloadL(0, pz);
         const uint n_near = near_candidates(X, Y, Z, columns, columns + CANDIDATE_COLUMN, columns + 2 * CANDIDATE_COLUMN,
                                             n_cand, R2, near);
-        float8 K = 0.0f, Sx = 0.0f, Sy = 0.0f, Sz = 0.0f, Gx = 0.0f, Gy = 0.0f, Gz = 0.0f;
-        float8 Axx = 0.0f, Axy = 0.0f, Axz = 0.0f, Ayx = 0.0f, Ayy = 0.0f, Ayz = 0.0f, Azx = 0.0f, Azy = 0.0f,
+        floatL K = 0.0f, Sx = 0.0f, Sy = 0.0f, Sz = 0.0f, Gx = 0.0f, Gy = 0.0f, Gz = 0.0f;
+        floatL Axx = 0.0f, Axy = 0.0f, Axz = 0.0f, Ayx = 0.0f, Ayy = 0.0f, Ayz = 0.0f, Azx = 0.0f, Azy = 0.0f,
                Azz = 0.0f;
         for (uint j = 0; j < n_near; ++j) {
             const float4 pj = cand[near[j]];
-            const float8 yx = pj.x - X, yy = pj.y - Y, yz = pj.z - Z;
-            const float8 d2 = yx * yx + yy * yy + yz * yz;
-            const float8 q0 = 1.0f - d2 * inv_R2;
-            const float8 q = select((float8)(0.0f), q0, q0 > SUPPORT_CUT);  // 0 beyond the cut: adds nothing
-            const float8 k = q * q * q;
-            const float8 g = (6.0f * inv_R2) * q * q;
-            const float8 gx = g * yx, gy = g * yy, gz = g * yz;
+            const floatL yx = pj.x - X, yy = pj.y - Y, yz = pj.z - Z;
+            const floatL d2 = yx * yx + yy * yy + yz * yz;
+            const floatL q0 = 1.0f - d2 * inv_R2;
+            const floatL q = select((floatL)(0.0f), q0, q0 > SUPPORT_CUT);  // 0 beyond the cut: adds nothing
+            const floatL k = q * q * q;
+            const floatL g = (6.0f * inv_R2) * q * q;
+            const floatL gx = g * yx, gy = g * yy, gz = g * yz;
             K += k;
             Sx += k * yx; Sy += k * yy; Sz += k * yz;
             Gx += gx; Gy += gy; Gz += gz;
@@ -340,14 +365,14 @@ inline void evaluate_claimed(__local const uint* claimed, uint n_claimed, __loca
             Azx += yz * gx; Azy += yz * gy; Azz += yz * gz;
         }
         // solenthaler_phi on all lanes at once, up to solenthaler_value
-        const float8 bx = Sx / K, by = Sy / K, bz = Sz / K, inv_K = 1.0f / K;  // ybar = S / K
-        const float8 ev = largest_real_eigenvalue8(
+        const floatL bx = Sx / K, by = Sy / K, bz = Sz / K, inv_K = 1.0f / K;  // ybar = S / K
+        const floatL ev = largest_real_eigenvalueL(
             (Axx - bx * Gx) * inv_K, (Axy - bx * Gy) * inv_K, (Axz - bx * Gz) * inv_K, (Ayx - by * Gx) * inv_K,
             (Ayy - by * Gy) * inv_K, (Ayz - by * Gz) * inv_K, (Azx - bz * Gx) * inv_K, (Azy - bz * Gy) * inv_K,
             (Azz - bz * Gz) * inv_K);
-        float k_[LANES], ybx[LANES], yby[LANES], ybz[LANES], ev_[LANES];
-        vstore8(K, 0, k_); vstore8(bx, 0, ybx); vstore8(by, 0, yby); vstore8(bz, 0, ybz); vstore8(ev, 0, ev_);
-        for (int l = 0; l < LANES && first + l < n_claimed; ++l) {
+        float k_[FIELD_LANES], ybx[FIELD_LANES], yby[FIELD_LANES], ybz[FIELD_LANES], ev_[FIELD_LANES];
+        vstoreL(K, 0, k_); vstoreL(bx, 0, ybx); vstoreL(by, 0, yby); vstoreL(bz, 0, ybz); vstoreL(ev, 0, ev_);
+        for (int l = 0; l < FIELD_LANES && first + l < n_claimed; ++l) {
             const float phi = solenthaler_value(k_[l], (float3)(ybx[l], yby[l], ybz[l]), ev_[l], r, R);
             value_bits[claimed[first + l]] = as_uint(phi);
         }
