@@ -17,6 +17,7 @@
 #include <utility>
 #include <vector>
 
+#include <sched.h>
 #include <unistd.h>
 #if defined(__GLIBC__)
 #include <malloc.h>
@@ -200,13 +201,39 @@ trilevel::Params make_params(const ReconstructArgs& a) {
 /// --threads N: at most N CPU threads, for the host stages (TBB; the returned limit holds while it
 /// lives) and for PoCL's CPU device (POCL_MAX_PTHREAD_COUNT, which PoCL reads when it starts: this
 /// runs before any OpenCL call). GPU drivers keep their own threads. Empty: every core.
-std::optional<tbb::global_control> limit_threads(const std::string& text) {
+std::optional<int> thread_count(const std::string& text) {
     if (text.empty()) return std::nullopt;
     const bool digits = std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; });
     const int n = digits && text.size() <= 4 ? std::stoi(text) : 0;
     if (n < 1) throw UsageError("--threads must be a whole number from 1 to 9999, got '" + text + "'");
-    ::setenv("POCL_MAX_PTHREAD_COUNT", std::to_string(n).c_str(), 1);
-    return std::optional<tbb::global_control>(std::in_place, tbb::global_control::max_allowed_parallelism, std::size_t(n));
+    return n;
+}
+
+std::optional<tbb::global_control> limit_threads(std::optional<int> n) {
+    if (!n) return std::nullopt;
+    ::setenv("POCL_MAX_PTHREAD_COUNT", std::to_string(*n).c_str(), 1);
+    return std::optional<tbb::global_control>(std::in_place, tbb::global_control::max_allowed_parallelism, std::size_t(*n));
+}
+
+/// PoCL's CPU-device threads pinned one to a CPU (POCL_AFFINITY=1 pins its thread i to CPU i) when
+/// this process may run on CPUs 0 to m-1 and nothing else, and PoCL runs m threads (no --threads,
+/// or --threads m). Unpinned, the scheduler now and then stacks both kernel threads on one core
+/// beside the reader, writer and host threads, and the other core idles: 50 x8 frames on 2 cores
+/// took 0.95x the wall time pinned (bench/RESULTS-sequences.md). Not otherwise: PoCL pins by
+/// thread index, so under any other CPU set (taskset, a container's cpuset, several jobs with
+/// smaller --threads on one machine) it would move threads onto CPUs the process was not given,
+/// or stack the jobs on the first CPUs. A POCL_AFFINITY the user set stays as it is.
+void pin_device_threads(std::optional<int> threads) {
+    if (std::getenv("POCL_AFFINITY")) return;
+    cpu_set_t allowed;
+    CPU_ZERO(&allowed);
+    if (::sched_getaffinity(0, sizeof(allowed), &allowed) != 0) return;
+    const int m = CPU_COUNT(&allowed);
+    for (int cpu = 0; cpu < m; ++cpu)
+        if (!CPU_ISSET(cpu, &allowed)) return;  // not the first m CPUs
+    if (threads && *threads != m) return;
+    ::setenv("POCL_MAX_PTHREAD_COUNT", std::to_string(m).c_str(), 1);  // thread indices 0 .. m-1: the CPUs given
+    ::setenv("POCL_AFFINITY", "1", 1);
 }
 
 /// A frame number option (--start, --end): a non-negative integer.
@@ -382,7 +409,9 @@ std::optional<int> run_pipelined_sequence(const trilevel::cli::SequencePlan& pla
 
 int run_reconstruct(const ReconstructArgs& a) {
     const trilevel::Params params = make_params(a);
-    const auto thread_limit = limit_threads(a.threads);
+    const std::optional<int> threads = thread_count(a.threads);
+    const auto thread_limit = limit_threads(threads);
+    pin_device_threads(threads);
     const bool sequence = trilevel::cli::is_sequence_pattern(a.input);
     if (sequence && !trilevel::cli::is_sequence_pattern(a.output))
         throw UsageError("-o must contain '{}' when the input is a frame sequence");

@@ -5,6 +5,7 @@
 #include <fstream>
 #include <sstream>
 
+#include <sched.h>
 #include <sys/wait.h>
 
 #include "cli_test_support.hpp"
@@ -165,5 +166,51 @@ TEST_CASE("CLI: two runs write bit-identical mesh files", "[cli][determinism]") 
         // and PoCL (a GPU keeps its compute units)
         if (stats.find("\"device\": \"pthread-") != std::string::npos || stats.find("\"device\": \"cpu-") != std::string::npos)
             CHECK(stats.find("\"device_compute_units\": 1\n") != std::string::npos);
+    }
+}
+
+TEST_CASE("CLI: PoCL's threads are pinned only when the process has the first CPUs to itself", "[cli][determinism]") {
+    // The CLI sets POCL_AFFINITY=1 (thread i on CPU i) only when it may run on CPUs 0 .. m-1 and
+    // nothing else; under another CPU set PoCL would move its threads off the CPUs given. Each run
+    // must succeed with the same bits; a pinned run has one PoCL thread per CPU given.
+    cpu_set_t allowed;
+    CPU_ZERO(&allowed);
+    REQUIRE(::sched_getaffinity(0, sizeof(allowed), &allowed) == 0);
+    if (std::system("taskset -c 0 true >/dev/null 2>&1") != 0 || !CPU_ISSET(0, &allowed) || CPU_COUNT(&allowed) < 2) {
+        WARN("SKIPPED: needs util-linux `taskset` and CPU 0 and another");
+        return;
+    }
+    int other = 1;
+    while (!CPU_ISSET(other, &allowed)) ++other;
+    TempDir tmp;
+    REQUIRE(run_cli(tmp, "generate falling-drop -o '" + tmp.file("p.xyz") + "' --radius 0.025 --seed 2").code == 0);
+    const std::string base = "reconstruct '" + tmp.file("p.xyz") + "' -r 0.025 -q ";
+    REQUIRE(run_cli(tmp, base + "-o '" + tmp.file("all.ply") + "'").code == 0);
+    const std::string all = slurp(tmp.file("all.ply"));
+    REQUIRE(all.size() > 1000);
+    const auto units = [&](const std::string& json) {
+        const std::string s = slurp(tmp.file(json)), key = "\"device_compute_units\": ";
+        const auto at = s.find(key);
+        return at == std::string::npos ? -1 : std::atoi(s.c_str() + at + key.size());
+    };
+    REQUIRE(run_cli(tmp, base + "-o '" + tmp.file("x.ply") + "' --stats '" + tmp.file("x.json") + "'").code == 0);
+    const std::string unrestricted = slurp(tmp.file("x.json"));
+    const bool pocl = unrestricted.find("\"device\": \"pthread-") != std::string::npos ||
+                      unrestricted.find("\"device\": \"cpu-") != std::string::npos;
+    struct Run {
+        std::string prefix, name;
+        int units;  // PoCL threads expected; 0: PoCL's own choice, which depends on its version
+    };
+    const std::vector<Run> runs = {
+        {"taskset -c 0 '", "first", 1},                               // CPU 0 only: pinned, one thread
+        {"taskset -c " + std::to_string(other) + " '", "other", 0},   // not the first CPU: left alone
+        {"POCL_AFFINITY=0 taskset -c 0 '", "user", 0}};               // the user's setting stays
+    for (const Run& r : runs) {
+        INFO(r.name);
+        const std::string cmd = r.prefix + TRILEVEL_CLI + "' " + base + "-o '" + tmp.file(r.name + ".ply") + "' --stats '" +
+                                tmp.file(r.name + ".json") + "' >/dev/null 2>&1";
+        REQUIRE(std::system(cmd.c_str()) == 0);
+        REQUIRE(slurp(tmp.file(r.name + ".ply")) == all);
+        if (pocl && r.units > 0) CHECK(units(r.name + ".json") == r.units);
     }
 }
