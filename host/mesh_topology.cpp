@@ -144,6 +144,42 @@ std::vector<long long> euler_characteristics(const Mesh& mesh, const MeshCompone
     return chi;
 }
 
-bool is_closed_and_oriented(const Mesh& mesh) { return mesh_topology_report(mesh).closed_and_oriented(); }
+// Decided around each vertex a: with Next(a) the vertices that follow a in its triangles (edges
+// a->b) and Prev(a) those that precede it (edges c->a), a mesh without bad indices or degenerate
+// triangles is closed and consistently oriented exactly when, at every vertex, Next(a) holds no
+// vertex twice and equals Prev(a) as a multiset: then each used edge a->b is used once, and so is
+// b->a (b in Prev(a)), and no edge has a third use. Everything is read from a's own fan, where
+// mesh_topology_report reads each neighbour's list too (a cache miss an edge).
+bool is_closed_and_oriented(const Mesh& mesh) {
+    const std::size_t nv = mesh.vertex_count();
+    const auto& t = mesh.triangles;
+    if (t.size() % 3) return false;
+    for (std::size_t i = 0; i < t.size(); i += 3)
+        if (t[i] >= nv || t[i + 1] >= nv || t[i + 2] >= nv || t[i] == t[i + 1] || t[i + 1] == t[i + 2] || t[i] == t[i + 2])
+            return false;
+    // Each vertex's fan, compressed-row: (next, prev) of every corner at that vertex.
+    std::vector<std::uint32_t> offset(nv + 1, 0);
+    for (std::uint32_t v : t) ++offset[v + 1];
+    for (std::size_t v = 0; v < nv; ++v) offset[v + 1] += offset[v];
+    std::vector<std::uint32_t> fill(offset.begin(), offset.end() - 1), next(t.size()), prev(t.size());
+    for (std::size_t i = 0; i < t.size(); i += 3)
+        for (int k = 0; k < 3; ++k) {
+            const std::uint32_t at = fill[t[i + k]]++;
+            next[at] = t[i + (k + 1) % 3];
+            prev[at] = t[i + (k + 2) % 3];
+        }
+    std::atomic<bool> ok{true};
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 4096), [&](const auto& range) {
+        for (std::size_t v = range.begin(); v != range.end() && ok.load(std::memory_order_relaxed); ++v) {
+            // Sorted in place (a fan holds about six corners), then compared.
+            std::uint32_t *n = next.data() + offset[v], *p = prev.data() + offset[v];
+            const std::size_t d = offset[v + 1] - offset[v];
+            std::sort(n, n + d);
+            std::sort(p, p + d);
+            if (!std::equal(n, n + d, p) || std::adjacent_find(n, n + d) != n + d) ok.store(false, std::memory_order_relaxed);
+        }
+    });
+    return ok.load();
+}
 
 }  // namespace trilevel

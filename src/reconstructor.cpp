@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <type_traits>
 #include <unordered_map>
 
 #include <sys/resource.h>
@@ -165,21 +166,27 @@ std::vector<CoarseCell> merge_cells(const std::vector<CoarseCell>& a, const std:
 }
 
 /// Unique fine points by level: all coordinates even = on the level-2 lattice. A pass over the
-/// whole table, so in parallel (serial, it showed in the triangulation stage's time).
+/// whole table, so in parallel (serial, it showed in the triangulation stage's time), on the
+/// stored keys: a key's lowest bit of each axis tested at once, a loop the compiler vectorises.
 void count_points(const FinePointMap& map, Stats& s) {
     using Counts = std::pair<std::size_t, std::size_t>;  // level 2, level 3
-    const Counts c = tbb::parallel_reduce(
-        tbb::blocked_range<std::size_t>(0, map.capacity(), 1 << 16), Counts{0, 0},
-        [&](const tbb::blocked_range<std::size_t>& r, Counts c) {
-            for (std::size_t slot = r.begin(); slot != r.end(); ++slot) {
-                const std::uint64_t k = map.key_at(slot);
-                if (k == lattice::kEmptyKey) continue;
-                const glm::ivec3 p = lattice::unpack(k);
-                (((p.x | p.y | p.z) & 1) == 0 ? c.first : c.second)++;
-            }
-            return c;
-        },
-        [](Counts a, Counts b) { return Counts{a.first + b.first, a.second + b.second}; });
+    const lattice::KeyLayout& layout = map.layout();
+    const Counts c = map.with_keys([&](const auto* keys) {
+        using Key = std::remove_cvref_t<decltype(*keys)>;
+        const Key empty = Key(layout.empty()), lowest = Key(1) | (Key(1) << layout.y_shift) | (Key(1) << layout.z_shift);
+        return tbb::parallel_reduce(
+            tbb::blocked_range<std::size_t>(0, map.capacity(), 1 << 16), Counts{0, 0},
+            [&](const tbb::blocked_range<std::size_t>& r, Counts c) {
+                std::size_t stored = 0, even = 0;
+                for (std::size_t slot = r.begin(); slot != r.end(); ++slot) {
+                    const Key k = keys[slot];
+                    stored += k != empty;
+                    even += k != empty && (k & lowest) == 0;
+                }
+                return Counts{c.first + even, c.second + stored - even};
+            },
+            [](Counts a, Counts b) { return Counts{a.first + b.first, a.second + b.second}; });
+    });
     s.fine_points_level2 = c.first;
     s.fine_points_level3 = c.second;
     s.fine_points = s.fine_points_level2 + s.fine_points_level3;

@@ -151,6 +151,20 @@ TEST_CASE("mesh topology report detects open, flipped and duplicated edges", "[m
     Mesh degenerate = m;
     degenerate.triangles[1] = 0;
     CHECK_FALSE(is_closed_and_oriented(degenerate));
+    // is_closed_and_oriented decides around each vertex; the report counts edges: the same verdict.
+    Mesh two = m;  // two tetrahedra sharing vertex 0: closed, each edge used twice
+    two.positions.insert(two.positions.end(), {-1, 0, 0, 0, -1, 0, 0, 0, -1});
+    two.triangles.insert(two.triangles.end(), {0, 4, 5, 0, 6, 4, 0, 5, 6, 4, 6, 5});
+    Mesh bad_index = m;
+    bad_index.triangles[4] = 9;
+    Mesh ragged = m;
+    ragged.triangles.pop_back();
+    Mesh fan = m;  // a third triangle on edge 1-2 and its reverse elsewhere: every count balanced but edge 1-2 used four times
+    fan.triangles.insert(fan.triangles.end(), {1, 2, 3, 2, 1, 3});
+    for (const Mesh* x : {&m, &open, &flipped, &twice, &degenerate, &two, &bad_index, &ragged, &fan})
+        CHECK(is_closed_and_oriented(*x) == mesh_topology_report(*x).closed_and_oriented());
+    CHECK(is_closed_and_oriented(two));
+    CHECK_FALSE(is_closed_and_oriented(fan));
 }
 
 TEST_CASE("uniform blocks of random fields give closed oriented meshes", "[mesh]") {
@@ -176,6 +190,19 @@ TEST_CASE("uniform blocks of random fields give closed oriented meshes", "[mesh]
                 INFO("boundary " << r.boundary_edges << " conflicts " << r.orientation_conflicts << " non-manifold "
                                  << r.non_manifold_edges << " degenerate " << r.degenerate_triangles);
                 CHECK(r.closed_and_oriented());
+                CHECK(is_closed_and_oriented(m));
+                if (m.triangle_count() > 1) {  // one triangle dropped, one turned over, one repeated: both verdicts false
+                    const std::size_t k = 3 * (rng() % m.triangle_count());
+                    Mesh dropped = m, turned = m, repeated = m;
+                    dropped.triangles.erase(dropped.triangles.begin() + std::ptrdiff_t(k), dropped.triangles.begin() + std::ptrdiff_t(k + 3));
+                    std::swap(turned.triangles[k], turned.triangles[k + 1]);
+                    repeated.triangles.insert(repeated.triangles.end(), m.triangles.begin() + std::ptrdiff_t(k),
+                                              m.triangles.begin() + std::ptrdiff_t(k + 3));
+                    for (const Mesh* x : {&dropped, &turned, &repeated}) {
+                        CHECK_FALSE(is_closed_and_oriented(*x));
+                        CHECK_FALSE(mesh_topology_report(*x).closed_and_oriented());
+                    }
+                }
                 CHECK(m.vertex_level.size() == m.vertex_count());
                 CHECK(m.triangle_kind.size() == m.triangle_count());
                 CHECK(std::count(m.triangle_kind.begin(), m.triangle_kind.end(), TriangleKind::Patch) == 0);
