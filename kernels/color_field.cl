@@ -41,11 +41,69 @@ inline uchar particle_flags(float3 g, int neighbours, float R) {
     return f;
 }
 
+// The colour-field gradients and flags of `n` particles from sorted index `first_particle`, N at
+// once from work-item `lid` on, one per vector lane (spare lanes repeat the last particle), over
+// the candidates in local memory: the bins of a box `width` (3 or 4) bins wide in x and 3 in y and
+// z, in z, y, x order, bin b from bin_first[b]. The first n_first particles' own bin is the box's
+// column 1, the others' column 2. Each lane adds, in candidate order, the candidates of the 27
+// bins around its own bin only, so its sums are those of color_field_global whatever the box.
+#define DEFINE_COLOR_BATCHES(N)                                                                                       \
+    inline void color_batches##N(uint first_particle, uint n, uint n_first, int width, __global const float* sorted, \
+                                 __local const float4* cand, __local const uint* bin_first, uint n_cand, float R,    \
+                                 float R2, float same2, float grad_norm, __global float* gradient,                   \
+                                 __global uchar* flags) {                                                             \
+        const uint lid = get_local_id(0), lsize = get_local_size(0);                                                  \
+        for (uint first = lid * N; first < n; first += lsize * N) {                                                   \
+            float px[N], py[N], pz[N];                                                                                 \
+            int column[N];                                                                                             \
+            for (int l = 0; l < N; ++l) {                                                                              \
+                const uint k = min(first + l, n - 1);                                                                  \
+                const float3 x = vload3(first_particle + k, sorted);                                                   \
+                px[l] = x.x; py[l] = x.y; pz[l] = x.z;                                                                 \
+                column[l] = k < n_first ? 1 : 2;                                                       \
+            }                                                                                                          \
+            const float##N X = vload##N(0, px), Y = vload##N(0, py), Z = vload##N(0, pz);                              \
+            const int##N C = vload##N(0, column);                                                                      \
+            float##N gx = 0.0f, gy = 0.0f, gz = 0.0f;                                                                  \
+            int##N nb = 0;                                                                                             \
+            for (int b = 0; b < 9 * width; ++b) {                                                                      \
+                const int col = b % width;                                                                             \
+                const int##N near = (C - 1 <= col) & (col <= C + 1); /* lanes whose 27 bins hold this one */           \
+                const uint end = b + 1 < 9 * width ? bin_first[b + 1] : n_cand;                                        \
+                for (uint j = bin_first[b]; j < end; ++j) {                                                            \
+                    const float4 pj = cand[j];                                                                         \
+                    const float##N dx = X - pj.x, dy = Y - pj.y, dz = Z - pj.z;                                        \
+                    const float##N d2 = dx * dx + dy * dy + dz * dz;                                                   \
+                    const int##N in = (d2 < R2) & near; /* the particle itself too: it adds 0 * w, no neighbour */    \
+                    const float##N q = select((float##N)(0.0f), R2 - d2, in);                                          \
+                    const float##N w = grad_norm * q * q;                                                              \
+                    gx += w * dx; gy += w * dy; gz += w * dz;                                                          \
+                    nb -= in & (d2 > same2); /* true is -1 */                                                          \
+                }                                                                                                      \
+            }                                                                                                          \
+            float ox[N], oy[N], oz[N];                                                                                 \
+            int on[N];                                                                                                 \
+            vstore##N(gx, 0, ox); vstore##N(gy, 0, oy); vstore##N(gz, 0, oz); vstore##N(nb, 0, on);                  \
+            for (uint l = 0; l < N && first + l < n; ++l) {                                                            \
+                const float3 g = (float3)(ox[l], oy[l], oz[l]);                                                        \
+                vstore3(g, first_particle + first + l, gradient);                                                      \
+                flags[first_particle + first + l] = particle_flags(g, on[l], R);                                       \
+            }                                                                                                          \
+        }                                                                                                              \
+    }
+DEFINE_COLOR_BATCHES(8)
+#if VECTOR_WIDTH == 16
+DEFINE_COLOR_BATCHES(16)
+#endif
+
 // Each work-group takes `per_group` occupied bins in turn (launching a work-group costs more than
 // a bin's work on CPU devices); a bin's particles share the 27 bins around it as candidates,
-// gathered once into local memory (gather_candidates). A work-item takes 8 particles at once, one
-// per vector lane; each lane adds its neighbours in candidate order, so a particle's result does
-// not depend on its lane. Bins whose candidates do not fit use color_field_global.
+// gathered once into local memory (gather_candidates), eight particles a work-item. Where vectors
+// are 16 wide (VECTOR_WIDTH), a bin and the next one when it is its +x neighbour go together:
+// their 16 particles or so fill one vector, over the 4 x 3 x 3 bins around both (a third more
+// candidates for twice the particles). A particle's sums do not change: each lane skips the
+// column of bins beyond its own 27, and those keep their order in the larger box. Bins whose
+// candidates do not fit use color_field_global.
 __kernel void color_field(__global const float* sorted, __global const uint* occupied, uint occupied_count,
                           uint per_group, float inv_cell,
                           __global const ulong* bin_keys, ulong bin_capacity, __global const uint2* range, float R,
@@ -54,15 +112,25 @@ __kernel void color_field(__global const float* sorted, __global const uint* occ
     const float R2 = R * R, same2 = R2 * (SAME_SPOT * SAME_SPOT);
     const float grad_norm = -945.0f / (32.0f * M_PI_F * pown(R, 9)) * volume;
     const uint lid = get_local_id(0), lsize = get_local_size(0);
-    const uint first_bin = get_group_id(0) * per_group;
-    for (uint ob = first_bin; ob < min(first_bin + per_group, occupied_count); ++ob) {
+    const uint first_bin = get_group_id(0) * per_group, end = min(first_bin + per_group, occupied_count);
+    for (uint ob = first_bin; ob < end;) {
         barrier(CLK_LOCAL_MEM_FENCE);  // the previous bin is done with the candidates
         const uint2 own = range[occupied[ob]];
         const int3 bin = cell_of(vload3(own.x, sorted), inv_cell);
-        const uint n_cand = gather_candidates(bin - 1, bin + 1, sorted, bin_keys, bin_capacity, range, cand, bin_first,
-                                              bin_slot, count);
+        bool pair = false;
+        uint n = own.y;
+#if VECTOR_WIDTH == 16
+        if (ob + 1 < end) {  // ranges follow the occupied order, so the pair's particles are contiguous
+            const uint2 next = range[occupied[ob + 1]];
+            pair = all(cell_of(vload3(next.x, sorted), inv_cell) == bin + (int3)(1, 0, 0)) && next.x == own.x + own.y;
+            if (pair) n += next.y;
+        }
+#endif
+        ob += pair ? 2 : 1;
+        const uint n_cand = gather_candidates(bin - 1, bin + (int3)(pair ? 2 : 1, 1, 1), sorted, bin_keys, bin_capacity,
+                                              range, cand, bin_first, bin_slot, count);
         if (n_cand > MAX_CANDIDATES) {
-            for (uint k = lid; k < own.y; k += lsize) {
+            for (uint k = lid; k < n; k += lsize) {
                 float3 g;
                 int nb;
                 color_field_global(own.x + k, sorted, inv_cell, bin_keys, bin_capacity, range, R2, grad_norm, &g, &nb);
@@ -71,34 +139,12 @@ __kernel void color_field(__global const float* sorted, __global const uint* occ
             }
             continue;
         }
-        for (uint first = lid * 8; first < own.y; first += lsize * 8) {
-            float px[8], py[8], pz[8];
-            for (int l = 0; l < 8; ++l) {  // spare lanes repeat the last particle
-                const uint i = own.x + min(first + l, own.y - 1);
-                const float3 x = vload3(i, sorted);
-                px[l] = x.x; py[l] = x.y; pz[l] = x.z;
-            }
-            const float8 X = vload8(0, px), Y = vload8(0, py), Z = vload8(0, pz);
-            float8 gx = 0.0f, gy = 0.0f, gz = 0.0f;
-            int8 nb = 0;
-            for (uint j = 0; j < n_cand; ++j) {
-                const float4 pj = cand[j];
-                const float8 dx = X - pj.x, dy = Y - pj.y, dz = Z - pj.z;
-                const float8 d2 = dx * dx + dy * dy + dz * dz;
-                const int8 in = d2 < R2;  // the particle itself too: it adds 0 * w and is no neighbour (d2 = 0)
-                const float8 q = select((float8)(0.0f), R2 - d2, in);
-                const float8 w = grad_norm * q * q;
-                gx += w * dx; gy += w * dy; gz += w * dz;
-                nb -= in & (d2 > same2);  // true is -1
-            }
-            float ox[8], oy[8], oz[8];
-            int on[8];
-            vstore8(gx, 0, ox); vstore8(gy, 0, oy); vstore8(gz, 0, oz); vstore8(nb, 0, on);
-            for (uint l = 0; l < 8 && first + l < own.y; ++l) {
-                const float3 g = (float3)(ox[l], oy[l], oz[l]);
-                vstore3(g, own.x + first + l, gradient);
-                flags[own.x + first + l] = particle_flags(g, on[l], R);
-            }
+#if VECTOR_WIDTH == 16
+        if (pair) {
+            color_batches16(own.x, n, own.y, 4, sorted, cand, bin_first, n_cand, R, R2, same2, grad_norm, gradient, flags);
+            continue;
         }
+#endif
+        color_batches8(own.x, n, n, 3, sorted, cand, bin_first, n_cand, R, R2, same2, grad_norm, gradient, flags);
     }
 }

@@ -4,7 +4,7 @@
 //   phi = |x - xbar| - r f(EVmax), EVmax = largest real part of the eigenvalues of J = d xbar / dx.
 // Sums use y_j = x_j - x (translation invariant, better float precision):
 //   J = (sum y_j (x) grad k_j - ybar (x) sum grad k_j) / K,  grad k_j = -6 (1 - s_j^2)^2 (x - x_j) / R^2.
-// Build options: EV_LOW, EV_HIGH, FIELD_LANES (8 or 16: points a work-item evaluates at once).
+// Build options: EV_LOW, EV_HIGH, VECTOR_WIDTH (8 or 16: points a work-item evaluates at once).
 // Uses: contract.h (CLAIM_*, MAX_CELL_POINTS), hash_table.cl, particle_binning.cl (gather_candidates),
 // refine_points.cl (cell_level, cell_has_point).
 
@@ -33,10 +33,10 @@ inline float largest_real_eigenvalue(float3 a, float3 b, float3 c) {
     return max(u1, -0.5f * u1) + s;
 }
 
-// The points' vectors in scalar_field_cells: FIELD_LANES lanes, one point each. 16 where the device
+// The points' vectors in scalar_field_cells: VECTOR_WIDTH lanes, one point each. 16 where the device
 // prefers 16-wide float vectors (AVX-512 CPUs: a 16-wide FMA costs 1.25x an 8-wide one), else 8
 // (GPUs, whose lanes are work-items: each vector lane is a register there).
-#if FIELD_LANES == 16
+#if VECTOR_WIDTH == 16
 typedef float16 floatL;
 typedef int16 intL;
 #define vloadL vload16
@@ -57,7 +57,7 @@ inline floatL triple_productL(floatL ax, floatL ay, floatL az, floatL bx, floatL
     return ax * kx + ay * ky + az * kz;
 }
 
-// largest_real_eigenvalue for FIELD_LANES matrices at once, one per vector lane (rows a, b, c by
+// largest_real_eigenvalue for VECTOR_WIDTH matrices at once, one per vector lane (rows a, b, c by
 // component), with the scalar function's expressions. Both closed forms are evaluated and each
 // lane selects its own: vector acos, cos and cbrt cost far less than eight scalar calls. They round
 // differently from the scalar forms now and then (docs/design.md, "Eigenvalues in vector form").
@@ -80,7 +80,7 @@ inline floatL largest_real_eigenvalueL(floatL ax, floatL ay, floatL az, floatL b
 }
 
 inline float min_lane(floatL v) {
-#if FIELD_LANES == 16
+#if VECTOR_WIDTH == 16
     const float8 e = fmin(v.lo, v.hi);
 #else
     const float8 e = v;
@@ -91,7 +91,7 @@ inline float min_lane(floatL v) {
 }
 
 inline float max_lane(floatL v) {
-#if FIELD_LANES == 16
+#if VECTOR_WIDTH == 16
     const float8 e = fmax(v.lo, v.hi);
 #else
     const float8 e = v;
@@ -158,7 +158,7 @@ __kernel void scalar_field(__global const uint* pending, uint count, __global co
 // edge refinement) by the work-group whose insert created it, which spares a separate insert
 // pass and a second table lookup per point; in the other passes
 // by the work-group that claims it first (its NaN "pending" value becomes CLAIMED). Each
-// work-item then evaluates FIELD_LANES claimed points at once, one per vector lane: every lane adds its
+// work-item then evaluates VECTOR_WIDTH claimed points at once, one per vector lane: every lane adds its
 // neighbours in candidate order (bins in z, y, x order, each in index order), so a point's value
 // does not depend on its lane or its partners. A cell whose candidates do not fit claims nothing
 // (what it inserted stays pending) and raises `overflow`; the host then lets the other cells claim
@@ -328,7 +328,7 @@ inline bool claim_cell_points(int4 c, int coarse_steps, int claim, bool fits, vo
 }
 
 // The field at the n_claimed points of `claimed` (table slots) from the n_cand candidates in local
-// memory: each work-item takes FIELD_LANES points at once, one per vector lane.
+// memory: each work-item takes VECTOR_WIDTH points at once, one per vector lane.
 inline void evaluate_claimed(__local const uint* claimed, uint n_claimed, __local const float4* cand, uint n_cand,
                              __local float* columns, volatile __global fine_key_t* keys,
                              volatile __global uint* value_bits, float step, float r, float R, uint2 shift) {
@@ -336,9 +336,9 @@ inline void evaluate_claimed(__local const uint* claimed, uint n_claimed, __loca
     const float R2 = R * R, inv_R2 = 1.0f / R2;
     candidate_columns(cand, n_cand, columns);
     ushort near[CANDIDATE_COLUMN];
-    for (uint first = lid * FIELD_LANES; first < n_claimed; first += lsize * FIELD_LANES) {
-        float px[FIELD_LANES], py[FIELD_LANES], pz[FIELD_LANES];
-        for (int l = 0; l < FIELD_LANES; ++l) {  // spare lanes repeat the last point
+    for (uint first = lid * VECTOR_WIDTH; first < n_claimed; first += lsize * VECTOR_WIDTH) {
+        float px[VECTOR_WIDTH], py[VECTOR_WIDTH], pz[VECTOR_WIDTH];
+        for (int l = 0; l < VECTOR_WIDTH; ++l) {  // spare lanes repeat the last point
             float3 x = convert_float3(fine_point(keys[claimed[min(first + l, n_claimed - 1)]], shift)) * step;
             px[l] = x.x; py[l] = x.y; pz[l] = x.z;
         }
@@ -370,9 +370,9 @@ inline void evaluate_claimed(__local const uint* claimed, uint n_claimed, __loca
             (Axx - bx * Gx) * inv_K, (Axy - bx * Gy) * inv_K, (Axz - bx * Gz) * inv_K, (Ayx - by * Gx) * inv_K,
             (Ayy - by * Gy) * inv_K, (Ayz - by * Gz) * inv_K, (Azx - bz * Gx) * inv_K, (Azy - bz * Gy) * inv_K,
             (Azz - bz * Gz) * inv_K);
-        float k_[FIELD_LANES], ybx[FIELD_LANES], yby[FIELD_LANES], ybz[FIELD_LANES], ev_[FIELD_LANES];
+        float k_[VECTOR_WIDTH], ybx[VECTOR_WIDTH], yby[VECTOR_WIDTH], ybz[VECTOR_WIDTH], ev_[VECTOR_WIDTH];
         vstoreL(K, 0, k_); vstoreL(bx, 0, ybx); vstoreL(by, 0, yby); vstoreL(bz, 0, ybz); vstoreL(ev, 0, ev_);
-        for (int l = 0; l < FIELD_LANES && first + l < n_claimed; ++l) {
+        for (int l = 0; l < VECTOR_WIDTH && first + l < n_claimed; ++l) {
             const float phi = solenthaler_value(k_[l], (float3)(ybx[l], yby[l], ybz[l]), ev_[l], r, R);
             value_bits[claimed[first + l]] = as_uint(phi);
         }

@@ -23,8 +23,8 @@ EnvironmentOverrides environment() {
     if (const char* v = value_of("TRILEVEL_MAX_CANDIDATES"))
         e.max_candidates = std::max(1ul, std::strtoul(v, nullptr, 10));
     if (const char* v = value_of("TRILEVEL_SERIAL_GATHER")) e.serial_gather = std::strcmp(v, "0") != 0;
-    if (const char* v = value_of("TRILEVEL_FIELD_LANES"); v && (std::strcmp(v, "8") == 0 || std::strcmp(v, "16") == 0))
-        e.field_lanes = std::atoi(v);
+    if (const char* v = value_of("TRILEVEL_VECTOR_WIDTH"); v && (std::strcmp(v, "8") == 0 || std::strcmp(v, "16") == 0))
+        e.vector_width = std::atoi(v);
     if (const char* v = value_of("TRILEVEL_FINE_KEYS")) e.wide_fine_keys = std::strcmp(v, "64") == 0;
     if (const char* v = value_of("TRILEVEL_MAX_LATTICE_STEPS")) e.max_lattice_steps = std::strtod(v, nullptr);
     if (const char* v = value_of("TRILEVEL_FAULT")) e.fault = v;

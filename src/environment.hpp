@@ -39,10 +39,11 @@ struct EnvironmentOverrides {
     /// is built. Default: 1 on CPU devices, 0 on others.
     std::optional<bool> serial_gather;
 
-    /// TRILEVEL_FIELD_LANES=8|16 (anything else: unset): the points a work-item of the field kernel
-    /// evaluates at once. Tests: both give the same bits. Read when a program is built. Default:
-    /// 16 on CPU devices that prefer 16-wide float vectors, else 8.
-    std::optional<int> field_lanes;
+    /// TRILEVEL_VECTOR_WIDTH=8|16 (anything else: unset): the lanes of the field kernel's and the
+    /// colour field's vectors (points or particles a work-item takes at once). Tests: both give the
+    /// same bits. Read when a program is built. Default: 16 on CPU devices that prefer 16-wide
+    /// float vectors, else 8.
+    std::optional<int> vector_width;
 
     /// TRILEVEL_FINE_KEYS=64: 64-bit fine-point keys even where the lattice fits 32-bit ones
     /// (tests: both give the same mesh; bench). Read at each reconstruction. Default: 32-bit keys

@@ -100,10 +100,10 @@ std::string mib(std::uint64_t bytes) {
     return buf;
 }
 
-std::string build_options(std::size_t max_candidates, bool cpu, int field_lanes) {
+std::string build_options(std::size_t max_candidates, bool cpu, int vector_width) {
     std::ostringstream o;
     o.precision(9);
-    o << "-cl-std=CL1.2 -DSERIAL_GATHER=" << (cpu ? 1 : 0) << " -DFIELD_LANES=" << field_lanes << " -DMAX_CANDIDATES=" << max_candidates << " -DSURFACE_GRADIENT=" << constants::kSurfaceGradient << "f"
+    o << "-cl-std=CL1.2 -DSERIAL_GATHER=" << (cpu ? 1 : 0) << " -DVECTOR_WIDTH=" << vector_width << " -DMAX_CANDIDATES=" << max_candidates << " -DSURFACE_GRADIENT=" << constants::kSurfaceGradient << "f"
       << " -DSPLASH_NEIGHBOURS=" << constants::kSplashNeighbours
       << " -DTHIN_NEIGHBOURS=" << constants::kThinNeighbours << " -DSAME_SPOT=" << constants::kSameSpot << "f" << " -DEV_LOW=" << constants::kEvLow << "f"
       << " -DEV_HIGH=" << constants::kEvHigh << "f" << " -DSUPPORT_CUT=" << constants::kSupportCut << "f";
@@ -198,12 +198,13 @@ bool OpenCLRuntime::serial_gather() const {
     return (device_.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_CPU) != 0;
 }
 
-/// Points a work-item of scalar_field_cells evaluates at once (scalar_field.cl, FIELD_LANES): 16 on
-/// CPU devices that prefer 16-wide float vectors (AVX-512: per lane, a 16-wide FMA runs at 1.6x the
-/// rate of an 8-wide one), else 8. TRILEVEL_FIELD_LANES=8|16 overrides it (tests: both give the same
-/// bits).
-int OpenCLRuntime::field_lanes() const {
-    if (const std::optional<int> lanes = environment().field_lanes) return *lanes;
+/// The lanes of the vectors in scalar_field_cells (points a work-item evaluates at once) and
+/// color_field (16: a bin and its +x neighbour in one vector), VECTOR_WIDTH in the kernels: 16 on CPU
+/// devices that prefer 16-wide float vectors (AVX-512: per lane, a 16-wide FMA runs at 1.6x the
+/// rate of an 8-wide one), else 8. TRILEVEL_VECTOR_WIDTH=8|16 overrides it (tests: both give the
+/// same bits).
+int OpenCLRuntime::vector_width() const {
+    if (const std::optional<int> lanes = environment().vector_width) return *lanes;
     const bool cpu = (device_.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_CPU) != 0;
     return cpu && device_.getInfo<CL_DEVICE_PREFERRED_VECTOR_WIDTH_FLOAT>() >= 16 ? 16 : 8;
 }
@@ -229,7 +230,7 @@ cl::Program OpenCLRuntime::build_program(int bits) {
     // bits == 0: the device-input program of its own (it needs double precision, the main one does not)
     const std::string source = bits == 0 ? embedded_device_input_source() : embedded_program_source();
     const std::string options = bits == 0 ? std::string("-cl-std=CL1.2")
-                                          : build_options(max_candidates_, serial_gather(), field_lanes()) + " -DFINE_KEY_BITS=" + std::to_string(bits);
+                                          : build_options(max_candidates_, serial_gather(), vector_width()) + " -DFINE_KEY_BITS=" + std::to_string(bits);
     // The cached binary of exactly this source, these options and this device and driver, if any
     // (program_cache.hpp); one the driver rejects is rebuilt from source and replaced.
     const std::string dir = program_cache_dir();

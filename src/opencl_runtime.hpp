@@ -110,7 +110,7 @@ private:
     std::optional<cl::Program> build_from_binary(std::optional<std::vector<unsigned char>> binary,
                                                  const std::string& options);
     bool serial_gather() const;
-    int field_lanes() const;
+    int vector_width() const;
     void maybe_fail(const char* call);
     cl::Buffer allocate(BufferPool::Entry& e, std::size_t bytes, const char* what);
     void make_room(BufferPool::Entry& e, std::size_t& capacity, std::size_t bytes);

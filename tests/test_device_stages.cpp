@@ -209,6 +209,28 @@ TEST_CASE("colour field, surface and splash particles match the C++ reference", 
     CHECK(c.splash == 3);
 }
 
+TEST_CASE("colour field is bit-identical with bins paired in 16-wide vectors and alone in 8-wide ones", "[device][color_field][determinism]") {
+    // VECTOR_WIDTH 16 meshes a bin and its +x neighbour in one vector over the 4 x 3 x 3 bins
+    // around both; each lane must still add exactly its own 27 bins' candidates in their order.
+    const float r = 0.025f, R = 4 * r;
+    const std::vector<glm::vec3> x = test_particles(r, 21);
+    std::vector<std::vector<float>> gradients;
+    std::vector<std::vector<cl_uchar>> flags;
+    for (const char* width : {"16", "8"}) {
+        ::setenv("TRILEVEL_VECTOR_WIDTH", width, 1);
+        OpenCLRuntime rt(-1);
+        ::unsetenv("TRILEVEL_VECTOR_WIDTH");
+        BinnedParticles b = bin_particles(rt, &x[0].x, x.size(), glm::dvec3(0.0), R);
+        ParticleClasses c = classify_particles(rt, b, r, R);
+        gradients.push_back(read_buffer<float>(rt, c.gradient, 3 * x.size()));
+        flags.push_back(read_buffer<cl_uchar>(rt, c.flags, x.size()));
+    }
+    REQUIRE(gradients[0].size() == 3 * x.size());
+    REQUIRE(std::count(flags[0].begin(), flags[0].end(), cl_uchar(0)) < std::ptrdiff_t(x.size()));  // some surface
+    REQUIRE(std::memcmp(gradients[0].data(), gradients[1].data(), gradients[0].size() * sizeof(float)) == 0);
+    REQUIRE(flags[0] == flags[1]);
+}
+
 TEST_CASE("particle curvature is bit-identical from both candidate gathers", "[device][curvature][determinism]") {
     // CPU devices gather only surface candidates, one work-item copying; GPUs gather every candidate
     // cooperatively and skip the others in the sum. Same candidates in the same order: same bits.

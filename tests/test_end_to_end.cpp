@@ -86,11 +86,11 @@ TEST_CASE("output is bit-identical across runs, reconstructors and work-group si
         Reconstructor cooperative;
         ::unsetenv("TRILEVEL_SERIAL_GATHER");
         REQUIRE(same_mesh(a, cooperative.reconstruct(s.positions.data(), s.size(), params(r, mode))));
-        for (const char* lanes : {"8", "16"}) {  // points a field work-item evaluates at once: 16 on AVX-512 CPUs, 8 on GPUs
-            ::setenv("TRILEVEL_FIELD_LANES", lanes, 1);
+        for (const char* lanes : {"8", "16"}) {  // vector lanes: 16 on AVX-512 CPUs (and colour-field bins paired), 8 on GPUs
+            ::setenv("TRILEVEL_VECTOR_WIDTH", lanes, 1);
             Reconstructor other;
-            ::unsetenv("TRILEVEL_FIELD_LANES");
-            INFO("field lanes " << lanes);
+            ::unsetenv("TRILEVEL_VECTOR_WIDTH");
+            INFO("vector width " << lanes);
             REQUIRE(same_mesh(a, other.reconstruct(s.positions.data(), s.size(), params(r, mode))));
         }
     }

@@ -41,14 +41,14 @@ const std::vector<std::string> kAll = {"TRILEVEL_DEVICE",        "TRILEVEL_WORK_
                                        "TRILEVEL_SERIAL_GATHER", "TRILEVEL_FINE_KEYS",    "TRILEVEL_MAX_LATTICE_STEPS",
                                        "TRILEVEL_FAULT",         "TRILEVEL_CACHE_DIR",    "XDG_CACHE_HOME",
                                        "HOME",                   "TRILEVEL_CACHE_MAX_MB", "TRILEVEL_NO_TMPFILE",
-                                       "TRILEVEL_PIPELINE",      "TRILEVEL_FIELD_LANES"};
+                                       "TRILEVEL_PIPELINE",      "TRILEVEL_VECTOR_WIDTH"};
 
 void check_defaults(const EnvironmentOverrides& e) {
     CHECK(e.device.empty());
     CHECK(!e.work_group);
     CHECK(!e.max_candidates);
     CHECK(!e.serial_gather);
-    CHECK(!e.field_lanes);
+    CHECK(!e.vector_width);
     CHECK(!e.wide_fine_keys);
     CHECK(!e.max_lattice_steps);
     CHECK(e.fault.empty());
@@ -79,7 +79,7 @@ TEST_CASE("environment: each variable reaches its field, parsed as documented", 
     env.set("TRILEVEL_WORK_GROUP", "64");
     env.set("TRILEVEL_MAX_CANDIDATES", "0");  // at least 1
     env.set("TRILEVEL_SERIAL_GATHER", "0");
-    env.set("TRILEVEL_FIELD_LANES", "16");
+    env.set("TRILEVEL_VECTOR_WIDTH", "16");
     env.set("TRILEVEL_FINE_KEYS", "64");
     env.set("TRILEVEL_MAX_LATTICE_STEPS", "80");
     env.set("TRILEVEL_FAULT", "scalar_field");
@@ -92,7 +92,7 @@ TEST_CASE("environment: each variable reaches its field, parsed as documented", 
     CHECK(e.work_group == std::optional<std::size_t>(64));
     CHECK(e.max_candidates == std::optional<std::size_t>(1));
     CHECK(e.serial_gather == std::optional<bool>(false));
-    CHECK(e.field_lanes == std::optional<int>(16));
+    CHECK(e.vector_width == std::optional<int>(16));
     CHECK(e.wide_fine_keys);
     CHECK(e.max_lattice_steps == std::optional<double>(80.0));
     CHECK(e.fault == "scalar_field");
@@ -105,7 +105,7 @@ TEST_CASE("environment: each variable reaches its field, parsed as documented", 
     // Read afresh at every call: the other values of each.
     env.set("TRILEVEL_WORK_GROUP", "many");  // not a number: 0, the driver's choice
     env.set("TRILEVEL_SERIAL_GATHER", "yes");  // anything but "0" is 1
-    env.set("TRILEVEL_FIELD_LANES", "4");  // neither 8 nor 16: the device's default
+    env.set("TRILEVEL_VECTOR_WIDTH", "4");  // neither 8 nor 16: the device's default
     env.set("TRILEVEL_FINE_KEYS", "32");
     env.set("TRILEVEL_CACHE_MAX_MB", "-1");  // not a size: ignored
     env.set("TRILEVEL_NO_TMPFILE", "0");
@@ -113,7 +113,7 @@ TEST_CASE("environment: each variable reaches its field, parsed as documented", 
     e = environment();
     CHECK(e.work_group == std::optional<std::size_t>(0));
     CHECK(e.serial_gather == std::optional<bool>(true));
-    CHECK(!e.field_lanes);
+    CHECK(!e.vector_width);
     CHECK(!e.wide_fine_keys);
     CHECK(!e.cache_max_bytes);
     CHECK(!e.no_tmpfile);
