@@ -79,27 +79,16 @@ inline floatL largest_real_eigenvalueL(floatL ax, floatL ay, floatL az, floatL b
     return select(max(u1, -0.5f * u1) + s, trig, three_real);
 }
 
-inline float min_lane(floatL v) {
+// The least and greatest lane of a floatL, halving the vector each step.
+inline float min8(float8 v) { const float4 a = fmin(v.lo, v.hi); const float2 b = fmin(a.lo, a.hi); return fmin(b.x, b.y); }
+inline float max8(float8 v) { const float4 a = fmax(v.lo, v.hi); const float2 b = fmax(a.lo, a.hi); return fmax(b.x, b.y); }
 #if VECTOR_WIDTH == 16
-    const float8 e = fmin(v.lo, v.hi);
+inline float min_lane(floatL v) { return min8(fmin(v.lo, v.hi)); }
+inline float max_lane(floatL v) { return max8(fmax(v.lo, v.hi)); }
 #else
-    const float8 e = v;
+inline float min_lane(floatL v) { return min8(v); }
+inline float max_lane(floatL v) { return max8(v); }
 #endif
-    const float4 a = fmin(e.lo, e.hi);
-    const float2 b = fmin(a.lo, a.hi);
-    return fmin(b.x, b.y);
-}
-
-inline float max_lane(floatL v) {
-#if VECTOR_WIDTH == 16
-    const float8 e = fmax(v.lo, v.hi);
-#else
-    const float8 e = v;
-#endif
-    const float4 a = fmax(e.lo, e.hi);
-    const float2 b = fmax(a.lo, a.hi);
-    return fmax(b.x, b.y);
-}
 
 inline float solenthaler_f(float ev) {
     if (ev < EV_LOW) return 1.0f;
