@@ -222,9 +222,11 @@ std::optional<tbb::global_control> limit_threads(std::optional<int> n) {
 /// took 0.95x the wall time pinned (bench/RESULTS-sequences.md). Not otherwise: PoCL pins by
 /// thread index, so under any other CPU set (taskset, a container's cpuset, several jobs with
 /// smaller --threads on one machine) it would move threads onto CPUs the process was not given,
-/// or stack the jobs on the first CPUs. A POCL_AFFINITY the user set stays as it is.
+/// or stack the jobs on the first CPUs. A POCL_AFFINITY the user set stays as it is, and so does
+/// a POCL_MAX_PTHREAD_COUNT (it counts as the thread count when --threads is not given).
 void pin_device_threads(std::optional<int> threads) {
     if (std::getenv("POCL_AFFINITY")) return;
+    if (const char* v = std::getenv("POCL_MAX_PTHREAD_COUNT"); v && !threads) threads = std::atoi(v);
     cpu_set_t allowed;
     CPU_ZERO(&allowed);
     if (::sched_getaffinity(0, sizeof(allowed), &allowed) != 0) return;

@@ -204,7 +204,8 @@ TEST_CASE("CLI: PoCL's threads are pinned only when the process has the first CP
     const std::vector<Run> runs = {
         {"taskset -c 0 '", "first", 1},                               // CPU 0 only: pinned, one thread
         {"taskset -c " + std::to_string(other) + " '", "other", 0},   // not the first CPU: left alone
-        {"POCL_AFFINITY=0 taskset -c 0 '", "user", 0}};               // the user's setting stays
+        {"POCL_AFFINITY=0 taskset -c 0 '", "user", 0},                // the user's setting stays
+        {"POCL_MAX_PTHREAD_COUNT=1 '", "count", 1}};                  // and the user's thread count
     for (const Run& r : runs) {
         INFO(r.name);
         const std::string cmd = r.prefix + TRILEVEL_CLI + "' " + base + "-o '" + tmp.file(r.name + ".ply") + "' --stats '" +
