@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <memory>
 #include <random>
 #include <set>
 
@@ -70,6 +71,15 @@ Classified classify(float r, float R, std::uint32_t seed) {
     c.classes = classify_particles(runtime(), c.bins, r, R);
     c.order = read_buffer<cl_uint>(runtime(), c.bins.order, c.x.size());
     return c;
+}
+
+/// A runtime whose program is built with `variable` set to `value` (a TRILEVEL_* switch the tests
+/// compare both sides of), the variable unset again.
+std::unique_ptr<OpenCLRuntime> runtime_with(const char* variable, const char* value) {
+    ::setenv(variable, value, 1);
+    auto rt = std::make_unique<OpenCLRuntime>(-1);
+    ::unsetenv(variable);
+    return rt;
 }
 
 /// The adaptive lattice of radius r: steps of r, coarse cells of 4 steps (64-bit keys).
@@ -210,20 +220,17 @@ TEST_CASE("colour field, surface and splash particles match the C++ reference", 
 }
 
 TEST_CASE("colour field is bit-identical with bins paired in 16-wide vectors and alone in 8-wide ones", "[device][color_field][determinism]") {
-    // VECTOR_WIDTH 16 meshes a bin and its +x neighbour in one vector over the 4 x 3 x 3 bins
+    // VECTOR_WIDTH 16 takes a bin and its +x neighbour in one vector over the 4 x 3 x 3 bins
     // around both; each lane must still add exactly its own 27 bins' candidates in their order.
     const float r = 0.025f, R = 4 * r;
     const std::vector<glm::vec3> x = test_particles(r, 21);
     std::vector<std::vector<float>> gradients;
     std::vector<std::vector<cl_uchar>> flags;
     for (const char* width : {"16", "8"}) {
-        ::setenv("TRILEVEL_VECTOR_WIDTH", width, 1);
-        OpenCLRuntime rt(-1);
-        ::unsetenv("TRILEVEL_VECTOR_WIDTH");
-        BinnedParticles b = bin_particles(rt, &x[0].x, x.size(), glm::dvec3(0.0), R);
-        ParticleClasses c = classify_particles(rt, b, r, R);
-        gradients.push_back(read_buffer<float>(rt, c.gradient, 3 * x.size()));
-        flags.push_back(read_buffer<cl_uchar>(rt, c.flags, x.size()));
+        const auto rt = runtime_with("TRILEVEL_VECTOR_WIDTH", width);
+        ParticleClasses c = classify_particles(*rt, bin_particles(*rt, &x[0].x, x.size(), glm::dvec3(0.0), R), r, R);
+        gradients.push_back(read_buffer<float>(*rt, c.gradient, 3 * x.size()));
+        flags.push_back(read_buffer<cl_uchar>(*rt, c.flags, x.size()));
     }
     REQUIRE(gradients[0].size() == 3 * x.size());
     REQUIRE(std::count(flags[0].begin(), flags[0].end(), cl_uchar(0)) < std::ptrdiff_t(x.size()));  // some surface
@@ -238,12 +245,10 @@ TEST_CASE("particle curvature is bit-identical from both candidate gathers", "[d
     const std::vector<glm::vec3> x = test_particles(r, 13);
     std::vector<std::vector<float>> kappa;
     for (const char* serial : {"1", "0"}) {
-        ::setenv("TRILEVEL_SERIAL_GATHER", serial, 1);
-        OpenCLRuntime rt(-1);
-        ::unsetenv("TRILEVEL_SERIAL_GATHER");
-        BinnedParticles b = bin_particles(rt, &x[0].x, x.size(), glm::dvec3(0.0), R);
-        ParticleClasses c = classify_particles(rt, b, r, R);
-        kappa.push_back(surface_cells(rt, b, c, r, R, 4 * r, 2.0f, 0, true).particle_kappa);
+        const auto rt = runtime_with("TRILEVEL_SERIAL_GATHER", serial);
+        BinnedParticles b = bin_particles(*rt, &x[0].x, x.size(), glm::dvec3(0.0), R);
+        ParticleClasses c = classify_particles(*rt, b, r, R);
+        kappa.push_back(surface_cells(*rt, b, c, r, R, 4 * r, 2.0f, 0, true).particle_kappa);
     }
     REQUIRE(kappa[0].size() == x.size());
     REQUIRE(std::count_if(kappa[0].begin(), kappa[0].end(), [](float k) { return k > 0.0f; }) > 100);
