@@ -17,7 +17,9 @@
 #include <utility>
 #include <vector>
 
+#if defined(__linux__)
 #include <sched.h>
+#endif
 #include <unistd.h>
 #if defined(__GLIBC__)
 #include <malloc.h>
@@ -225,6 +227,7 @@ std::optional<tbb::global_control> limit_threads(std::optional<int> n) {
 /// or stack the jobs on the first CPUs. A POCL_AFFINITY the user set stays as it is, and so does
 /// a POCL_MAX_PTHREAD_COUNT (it counts as the thread count when --threads is not given).
 void pin_device_threads(std::optional<int> threads) {
+#if defined(__linux__)  // POCL_AFFINITY is Linux-only in PoCL too
     if (std::getenv("POCL_AFFINITY")) return;
     if (const char* v = std::getenv("POCL_MAX_PTHREAD_COUNT"); v && !threads) threads = std::atoi(v);
     cpu_set_t allowed;
@@ -236,6 +239,9 @@ void pin_device_threads(std::optional<int> threads) {
     if (threads && *threads != m) return;
     ::setenv("POCL_MAX_PTHREAD_COUNT", std::to_string(m).c_str(), 1);  // thread indices 0 .. m-1: the CPUs given
     ::setenv("POCL_AFFINITY", "1", 1);
+#else
+    (void)threads;
+#endif
 }
 
 /// A frame number option (--start, --end): a non-negative integer.
