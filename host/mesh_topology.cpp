@@ -16,28 +16,48 @@
 namespace trilevel {
 namespace {
 
-// Outgoing directed edges per vertex, compressed-row: targets of vertex v in [offset[v], offset[v+1]).
-struct OutEdges {
-    std::vector<std::uint32_t> offset, target;
+// Each vertex's fan, compressed-row: for every corner at vertex v, in [offset[v], offset[v+1]),
+// the vertex after v in that triangle (edge v->next) and the one before it (edge prev->v).
+struct Fans {
+    std::vector<std::uint32_t> offset, next, prev;
+    /// Uses of the directed edge a->b.
     std::size_t count(std::uint32_t a, std::uint32_t b) const {
         std::size_t n = 0;
-        for (std::uint32_t i = offset[a]; i < offset[a + 1]; ++i) n += target[i] == b;
+        for (std::uint32_t i = offset[a]; i < offset[a + 1]; ++i) n += next[i] == b;
         return n;
     }
 };
 
-OutEdges build_out_edges(const Mesh& mesh) {
+// For a mesh of whole triangles with valid indices.
+Fans build_fans(const Mesh& mesh) {
     const std::size_t nv = mesh.vertex_count();
     const auto& t = mesh.triangles;
-    OutEdges g;
+    Fans g;
     g.offset.assign(nv + 1, 0);
-    for (std::size_t i = 0; i < t.size(); ++i) ++g.offset[t[i] + 1];
+    for (std::uint32_t v : t) ++g.offset[v + 1];
     for (std::size_t v = 0; v < nv; ++v) g.offset[v + 1] += g.offset[v];
     std::vector<std::uint32_t> fill(g.offset.begin(), g.offset.end() - 1);
-    g.target.resize(t.size());
+    g.next.resize(t.size());
+    g.prev.resize(t.size());
     for (std::size_t i = 0; i < t.size(); i += 3)
-        for (int k = 0; k < 3; ++k) g.target[fill[t[i + k]]++] = t[i + (k + 1) % 3];
+        for (int k = 0; k < 3; ++k) {
+            const std::uint32_t at = fill[t[i + k]]++;
+            g.next[at] = t[i + (k + 1) % 3];
+            g.prev[at] = t[i + (k + 2) % 3];
+        }
     return g;
+}
+
+// The report's first two counts: triangles with an index past the vertices (one more when the
+// list is not whole triangles) and triangles that repeat a vertex.
+void count_faulty_triangles(const Mesh& mesh, MeshTopologyReport& r) {
+    const std::size_t nv = mesh.vertex_count();
+    const auto& t = mesh.triangles;
+    for (std::size_t i = 0; i + 2 < t.size(); i += 3) {
+        if (t[i] >= nv || t[i + 1] >= nv || t[i + 2] >= nv) ++r.bad_indices;
+        if (t[i] == t[i + 1] || t[i + 1] == t[i + 2] || t[i] == t[i + 2]) ++r.degenerate_triangles;
+    }
+    r.bad_indices += t.size() % 3 != 0;
 }
 
 }  // namespace
@@ -45,16 +65,9 @@ OutEdges build_out_edges(const Mesh& mesh) {
 MeshTopologyReport mesh_topology_report(const Mesh& mesh) {
     MeshTopologyReport r;
     const std::size_t nv = mesh.vertex_count();
-    const auto& t = mesh.triangles;
-    for (std::size_t i = 0; i + 2 < t.size(); i += 3) {
-        if (t[i] >= nv || t[i + 1] >= nv || t[i + 2] >= nv) ++r.bad_indices;
-        if (t[i] == t[i + 1] || t[i + 1] == t[i + 2] || t[i] == t[i + 2]) ++r.degenerate_triangles;
-    }
-    if (r.bad_indices || t.size() % 3) {
-        r.bad_indices += t.size() % 3 != 0;
-        return r;
-    }
-    const OutEdges g = build_out_edges(mesh);
+    count_faulty_triangles(mesh, r);
+    if (r.bad_indices) return r;
+    const Fans g = build_fans(mesh);
     tbb::combinable<MeshTopologyReport> part;
     // Each undirected edge is judged once: at the first listing of its smaller-to-larger use,
     // or, when there is none, at the first listing of its larger-to-smaller use.
@@ -62,10 +75,10 @@ MeshTopologyReport mesh_topology_report(const Mesh& mesh) {
         MeshTopologyReport& p = part.local();
         for (std::uint32_t a = range.begin(); a != range.end(); ++a)
             for (std::uint32_t i = g.offset[a]; i < g.offset[a + 1]; ++i) {
-                const std::uint32_t b = g.target[i];
+                const std::uint32_t b = g.next[i];
                 if (b == a) continue;
                 bool first = true;
-                for (std::uint32_t j = g.offset[a]; j < i; ++j) first &= g.target[j] != b;
+                for (std::uint32_t j = g.offset[a]; j < i; ++j) first &= g.next[j] != b;
                 if (!first) continue;
                 const std::size_t nab = g.count(a, b), nba = g.count(b, a);
                 if (a > b && nba > 0) continue;
@@ -151,29 +164,17 @@ std::vector<long long> euler_characteristics(const Mesh& mesh, const MeshCompone
 // b->a (b in Prev(a)), and no edge has a third use. Everything is read from a's own fan, where
 // mesh_topology_report reads each neighbour's list too (a cache miss an edge).
 bool is_closed_and_oriented(const Mesh& mesh) {
+    MeshTopologyReport faults;
+    count_faulty_triangles(mesh, faults);
+    if (faults.bad_indices || faults.degenerate_triangles) return false;
+    Fans g = build_fans(mesh);
     const std::size_t nv = mesh.vertex_count();
-    const auto& t = mesh.triangles;
-    if (t.size() % 3) return false;
-    for (std::size_t i = 0; i < t.size(); i += 3)
-        if (t[i] >= nv || t[i + 1] >= nv || t[i + 2] >= nv || t[i] == t[i + 1] || t[i + 1] == t[i + 2] || t[i] == t[i + 2])
-            return false;
-    // Each vertex's fan, compressed-row: (next, prev) of every corner at that vertex.
-    std::vector<std::uint32_t> offset(nv + 1, 0);
-    for (std::uint32_t v : t) ++offset[v + 1];
-    for (std::size_t v = 0; v < nv; ++v) offset[v + 1] += offset[v];
-    std::vector<std::uint32_t> fill(offset.begin(), offset.end() - 1), next(t.size()), prev(t.size());
-    for (std::size_t i = 0; i < t.size(); i += 3)
-        for (int k = 0; k < 3; ++k) {
-            const std::uint32_t at = fill[t[i + k]]++;
-            next[at] = t[i + (k + 1) % 3];
-            prev[at] = t[i + (k + 2) % 3];
-        }
     std::atomic<bool> ok{true};
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 4096), [&](const auto& range) {
         for (std::size_t v = range.begin(); v != range.end() && ok.load(std::memory_order_relaxed); ++v) {
             // Sorted in place (a fan holds about six corners), then compared.
-            std::uint32_t *n = next.data() + offset[v], *p = prev.data() + offset[v];
-            const std::size_t d = offset[v + 1] - offset[v];
+            std::uint32_t *n = g.next.data() + g.offset[v], *p = g.prev.data() + g.offset[v];
+            const std::size_t d = g.offset[v + 1] - g.offset[v];
             std::sort(n, n + d);
             std::sort(p, p + d);
             if (!std::equal(n, n + d, p) || std::adjacent_find(n, n + d) != n + d) ok.store(false, std::memory_order_relaxed);

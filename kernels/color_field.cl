@@ -43,15 +43,16 @@ inline uchar particle_flags(float3 g, int neighbours, float R) {
 
 // The colour-field gradients and flags of `n` particles from sorted index `first_particle`, N at
 // once from work-item `lid` on, one per vector lane (spare lanes repeat the last particle), over
-// the candidates in local memory: the bins of a box `width` (3 or 4) bins wide in x and 3 in y and
-// z, in z, y, x order, bin b from bin_first[b]. The first n_first particles' own bin is the box's
-// column 1, the others' column 2. Each lane adds, in candidate order, the candidates of the 27
-// bins around its own bin only, so its sums are those of color_field_global whatever the box.
+// the candidates in local memory, bin b of the box from bin_first[b] in z, y, x order. N = 8: one
+// bin's particles over the 3 x 3 x 3 bins around it. N = 16: a bin's n_first particles and its +x
+// neighbour's, over the 4 x 3 x 3 bins around both; each lane then masks the column of bins
+// beyond its own 27, so its sums, in candidate order, are those of color_field_global either way.
 #define DEFINE_COLOR_BATCHES(N)                                                                                       \
-    inline void color_batches##N(uint first_particle, uint n, uint n_first, int width, __global const float* sorted, \
+    inline void color_batches##N(uint first_particle, uint n, uint n_first, __global const float* sorted,             \
                                  __local const float4* cand, __local const uint* bin_first, uint n_cand, float R,    \
                                  float R2, float same2, float grad_norm, __global float* gradient,                   \
                                  __global uchar* flags) {                                                             \
+        const int width = N == 16 ? 4 : 3, paired = N == 16;                                                           \
         const uint lid = get_local_id(0), lsize = get_local_size(0);                                                  \
         for (uint first = lid * N; first < n; first += lsize * N) {                                                   \
             float px[N], py[N], pz[N];                                                                                 \
@@ -60,7 +61,7 @@ inline uchar particle_flags(float3 g, int neighbours, float R) {
                 const uint k = min(first + l, n - 1);                                                                  \
                 const float3 x = vload3(first_particle + k, sorted);                                                   \
                 px[l] = x.x; py[l] = x.y; pz[l] = x.z;                                                                 \
-                column[l] = k < n_first ? 1 : 2;                                                       \
+                column[l] = k < n_first ? 1 : 2;                                                                       \
             }                                                                                                          \
             const float##N X = vload##N(0, px), Y = vload##N(0, py), Z = vload##N(0, pz);                              \
             const int##N C = vload##N(0, column);                                                                      \
@@ -68,7 +69,8 @@ inline uchar particle_flags(float3 g, int neighbours, float R) {
             int##N nb = 0;                                                                                             \
             for (int b = 0; b < 9 * width; ++b) {                                                                      \
                 const int col = b % width;                                                                             \
-                const int##N near = (C - 1 <= col) & (col <= C + 1); /* lanes whose 27 bins hold this one */           \
+                /* lanes whose 27 bins hold this one: all of them for one bin (a constant the loop drops) */          \
+                const int##N near = paired ? (C - 1 <= col) & (col <= C + 1) : (int##N)(-1);                           \
                 const uint end = b + 1 < 9 * width ? bin_first[b + 1] : n_cand;                                        \
                 for (uint j = bin_first[b]; j < end; ++j) {                                                            \
                     const float4 pj = cand[j];                                                                         \
@@ -141,10 +143,10 @@ __kernel void color_field(__global const float* sorted, __global const uint* occ
         }
 #if VECTOR_WIDTH == 16
         if (pair) {
-            color_batches16(own.x, n, own.y, 4, sorted, cand, bin_first, n_cand, R, R2, same2, grad_norm, gradient, flags);
+            color_batches16(own.x, n, own.y, sorted, cand, bin_first, n_cand, R, R2, same2, grad_norm, gradient, flags);
             continue;
         }
 #endif
-        color_batches8(own.x, n, n, 3, sorted, cand, bin_first, n_cand, R, R2, same2, grad_norm, gradient, flags);
+        color_batches8(own.x, n, n, sorted, cand, bin_first, n_cand, R, R2, same2, grad_norm, gradient, flags);
     }
 }
