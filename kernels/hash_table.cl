@@ -40,11 +40,11 @@ inline ulong trilevel_hash(ulong k) {
 // vectorises where a 64-bit mul_hi does not); the key's place in its block fills the low 3 bits.
 // The particle bins keep the low-bit layout: their counting-sort buckets run in slot order, and
 // particle_curvature ran slower on the multiply-shift order (bench/RESULTS-implementation.md).
-inline ulong home_slot(ulong k, ulong capacity) {
-    const ulong h = trilevel_hash(k);
+inline ulong slot_of_hash(ulong h, ulong capacity) {
     if ((capacity & (capacity - 1)) == 0) return h & (capacity - 1);
     return ((((h >> 32) * (capacity >> 3)) >> 32) << 3) | (h & 7UL);
 }
+inline ulong home_slot(ulong k, ulong capacity) { return slot_of_hash(trilevel_hash(k), capacity); }
 
 inline ulong next_slot(ulong s, ulong capacity) { return s + 1 == capacity ? 0 : s + 1; }
 
@@ -131,10 +131,10 @@ inline int3 fine_point(fine_key_t k, uint2 shift) {
                   (int)(k >> shift.y));
 }
 
-// hash_find for lattice point p in the fine-point table.
-inline long fine_find(const __global fine_key_t* keys, ulong capacity, int3 p, uint2 shift) {
+// fine_find from a home slot the caller computed (a block's members share their hash but for the
+// low 3 bits: see trilevel_hash).
+inline long fine_find_from(const __global fine_key_t* keys, ulong capacity, ulong s, int3 p, uint2 shift) {
     const fine_key_t key = fine_key(p, shift);
-    ulong s = home_slot(pack_key(p), capacity);
     for (ulong i = 0; i < capacity; ++i) {
         const fine_key_t cur = keys[s];
         if (cur == key) return (long)s;
@@ -142,6 +142,11 @@ inline long fine_find(const __global fine_key_t* keys, ulong capacity, int3 p, u
         s = next_slot(s, capacity);
     }
     return -1;
+}
+
+// hash_find for lattice point p in the fine-point table.
+inline long fine_find(const __global fine_key_t* keys, ulong capacity, int3 p, uint2 shift) {
+    return fine_find_from(keys, capacity, home_slot(pack_key(p), capacity), p, shift);
 }
 
 // hash_insert for lattice point p in the fine-point table.

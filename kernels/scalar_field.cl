@@ -219,26 +219,58 @@ inline void claim_refined_edges(int3 base, int cs, volatile __global fine_key_t*
                                     __local uint* claimed, volatile __local uint* claimed_count,
                                     volatile __global int* table_stats) {
     const uint lid = get_local_id(0), lsize = get_local_size(0);
-    const int m = cs / 2 + 1, mm = m * m;  // level-2 points per axis
+    const int m = cs / 2 + 1, mm = m * m;  // level-2 points per axis: at most 5, so at most 125 corners
     const ulong recip = lattice_reciprocal(m);
-    for (int l = (int)lid; l < mm * m; l += (int)lsize) {
-        const int3 o = lattice_offset(l, m, recip) * 2;
-        const long slot = fine_find((const __global fine_key_t*)keys, capacity, base + o, shift);
-        corner[l] = slot < 0 ? as_float(PENDING_BITS) : as_float(value_bits[slot]);  // NaN: no crossing
+    // The corners by the 2x2x2 blocks of the level-2 lattice that share a hash (trilevel_hash): one
+    // hash a block instead of one a corner (base is even: hlo are the corners' halved coordinates).
+    const int3 hlo = base / 2, blo = hlo >> 1, nb = ((hlo + m - 1) >> 1) - blo + 1;
+    for (int b = (int)lid; b < nb.x * nb.y * nb.z; b += (int)lsize) {
+        const int3 block = blo + (int3)(b % nb.x, (b / nb.x) % nb.y, b / (nb.x * nb.y));
+        const ulong h = trilevel_hash(pack_key(block * 4));  // its lowest member: in-block bits 0
+        for (int k = 0; k < 8; ++k) {
+            const int3 hp = block * 2 + (int3)(k & 1, (k >> 1) & 1, k >> 2);
+            const int3 o = hp - hlo;
+            if (any(o < 0) || any(o >= m)) continue;
+            const long slot = fine_find_from((const __global fine_key_t*)keys, capacity, slot_of_hash(h | (ulong)k, capacity),
+                                             hp * 2, shift);
+            corner[o.x + m * o.y + mm * o.z] = slot < 0 ? as_float(PENDING_BITS) : as_float(value_bits[slot]);  // NaN: no crossing
+        }
     }
     barrier(CLK_LOCAL_MEM_FENCE);
-    for (int l = (int)lid; l < mm * m; l += (int)lsize) {  // each corner and its edges towards +x, +y, +z
-        const int3 o = lattice_offset(l, m, recip);
-        const float va = corner[l];
+    if (lid == 0) {
+        // Corner l is bit l of two 64-bit words (x fastest): the corners with a value, those inside
+        // (phi < 0), and those with a neighbour towards +x, +y, +z. An edge from corner l along an axis
+        // of stride s crosses where both ends have values and one is inside: bit l of
+        // valid & (valid >> s) & (inside ^ (inside >> s)) & has_next. A cell has about two.
+        ulong valid[2] = {0, 0}, inside[2] = {0, 0}, next[3][2] = {{0, 0}, {0, 0}, {0, 0}};
+        for (int l = 0, x = 0, y = 0, z = 0; l < mm * m; ++l) {
+            const ulong bit = 1UL << (l & 63);
+            const float v = corner[l];
+            if (!isnan(v)) valid[l >> 6] |= bit;
+            if (v < 0.0f) inside[l >> 6] |= bit;
+            if (x < m - 1) next[0][l >> 6] |= bit;
+            if (y < m - 1) next[1][l >> 6] |= bit;
+            if (z < m - 1) next[2][l >> 6] |= bit;
+            if (++x == m) { x = 0; if (++y == m) { y = 0; ++z; } }
+        }
         for (int axis = 0; axis < 3; ++axis) {
+            const int s = axis == 0 ? 1 : axis == 1 ? m : mm;  // below 64
             const int3 d = (int3)(axis == 0, axis == 1, axis == 2);
-            if ((axis == 0 ? o.x : axis == 1 ? o.y : o.z) == m - 1) continue;
-            const float vb = corner[l + (axis == 0 ? 1 : axis == 1 ? m : mm)];
-            if (isnan(va) || isnan(vb) || (va < 0.0f) == (vb < 0.0f)) continue;
-            int created;
-            const long slot = fine_insert(keys, capacity, base + 2 * o + d, shift, &created);
-            if (slot < 0) atomic_or(&table_stats[0], 1);  // full: the host grows it and runs the pass again
-            if (created) claimed[atomic_inc(claimed_count)] = (uint)slot;
+            for (int w = 0; w < 2; ++w) {
+                // the words shifted right by s across the pair
+                const ulong vs = (valid[w] >> s) | (w == 0 ? valid[1] << (64 - s) : 0UL);
+                const ulong is = (inside[w] >> s) | (w == 0 ? inside[1] << (64 - s) : 0UL);
+                ulong cross = valid[w] & vs & (inside[w] ^ is) & next[axis][w];
+                while (cross) {
+                    const int l = 64 * w + (63 - (int)clz(cross & (0UL - cross)));  // lowest set bit
+                    cross &= cross - 1;
+                    const int3 o = lattice_offset(l, m, recip);
+                    int created;
+                    const long slot = fine_insert(keys, capacity, base + 2 * o + d, shift, &created);
+                    if (slot < 0) atomic_or(&table_stats[0], 1);  // full: the host grows it and runs the pass again
+                    if (created) claimed[(*claimed_count)++] = (uint)slot;
+                }
+            }
         }
     }
 }
