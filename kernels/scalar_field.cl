@@ -5,7 +5,7 @@
 // Sums use y_j = x_j - x (translation invariant, better float precision):
 //   J = (sum y_j (x) grad k_j - ybar (x) sum grad k_j) / K,  grad k_j = -6 (1 - s_j^2)^2 (x - x_j) / R^2.
 // Build options: EV_LOW, EV_HIGH, VECTOR_WIDTH (8 or 16: points a work-item evaluates at once).
-// Uses: contract.h (CLAIM_*, MAX_CELL_POINTS), hash_table.cl, particle_binning.cl (gather_candidates),
+// Uses: contract.h (CLAIM_*, MAX_CELL_POINTS), hash_table.cl, particle_binning.cl (FOR_EACH_NEIGHBOUR_BIN, candidate),
 // refine_points.cl (cell_level, cell_has_point).
 
 // Largest real part of the eigenvalues of a 3x3 matrix (rows a, b, c) from its characteristic
@@ -189,20 +189,64 @@ inline uint near_candidates(floatL X, floatL Y, floatL Z, __local const float* c
     return n;
 }
 
-// The candidates' coordinates in columns for near_candidates, padded to whole vectors with points
+// The candidates of a cell's points (gather_candidates' bins and order: for any point inside, its
+// neighbours in the order of FOR_EACH_NEIGHBOUR_BIN) straight into the columns that near_candidates
+// and the sums read (x, y, z, each CANDIDATE_COLUMN long), padded to whole vectors with points
 // beyond any support (at 1e18 in the frame's coordinates, which lie within 2^20 steps of the
-// origin: their squared distance, about 1e36, is finite and far above R^2). All work-items call it.
+// origin: their squared distance, about 1e36, is finite and far above R^2). One pass over the
+// particles instead of a float4 list and its transposition (the two were a third of
+// scalar_field_cells). Returns the count, or MAX_CANDIDATES + 1 when they do not fit. All
+// work-items call it; SERIAL_GATHER as in gather_candidates.
 #define WHOLE_LANES(n) (((n) + COLUMN_LANES - 1) / COLUMN_LANES * COLUMN_LANES)
 #define CANDIDATE_COLUMN WHOLE_LANES(MAX_CANDIDATES)  // each column's length (host: contract::candidate_column)
-inline void candidate_columns(__local const float4* cand, uint n_cand, __local float* columns) {
+inline void copy_to_columns(__global const float* sorted, uint from, uint n, __local float* columns, uint to) {
+    for (uint k = 0; k < n; ++k) {
+        const float3 p = vload3(from + k, sorted);
+        columns[to + k] = p.x;
+        columns[CANDIDATE_COLUMN + to + k] = p.y;
+        columns[2 * CANDIDATE_COLUMN + to + k] = p.z;
+    }
+}
+inline uint gather_columns(int3 blo, int3 bhi, __global const float* sorted, __global const ulong* bin_keys,
+                           ulong bin_capacity, __global const uint2* range, __local float* columns,
+                           __local uint* bin_first, __local uint* bin_slot, __local uint* count) {
     const uint lid = get_local_id(0), lsize = get_local_size(0);
-    for (uint k = lid; k < WHOLE_LANES(n_cand); k += lsize) {
-        const float4 p = k < n_cand ? cand[k] : (float4)(1e18f);
-        columns[k] = p.x;
-        columns[CANDIDATE_COLUMN + k] = p.y;
-        columns[2 * CANDIDATE_COLUMN + k] = p.z;
+    const int3 bn = bhi - blo + 1;
+    if (lid == 0) {
+        const bool few_bins = bn.x * bn.y * bn.z <= MAX_BINS;
+        uint total = 0;
+        int b = 0;
+        for (int z = 0; z < bn.z && few_bins; ++z)
+            for (int y = 0; y < bn.y; ++y)
+                for (int x = 0; x < bn.x; ++x, ++b) {
+                    const int3 q = blo + (int3)(x, y, z);
+                    const long s = key_in_range(q) ? hash_find(bin_keys, bin_capacity, pack_key(q)) : -1;
+                    bin_slot[b] = (uint)s;
+                    bin_first[b] = total;
+                    if (s < 0) continue;
+                    const uint2 rg = range[s];
+                    if (SERIAL_GATHER && total + rg.y <= MAX_CANDIDATES) copy_to_columns(sorted, rg.x, rg.y, columns, total);
+                    total += rg.y;
+                }
+        *count = (few_bins && total <= MAX_CANDIDATES) ? total : MAX_CANDIDATES + 1;
     }
     barrier(CLK_LOCAL_MEM_FENCE);
+    const uint n = *count;
+    if (n <= MAX_CANDIDATES) {
+        if (!SERIAL_GATHER)
+            for (int b = 0; b < bn.x * bn.y * bn.z; ++b) {
+                if ((int)bin_slot[b] < 0) continue;
+                const uint2 rg = range[bin_slot[b]];
+                for (uint k = lid; k < rg.y; k += lsize) copy_to_columns(sorted, rg.x + k, 1, columns, bin_first[b] + k);
+            }
+        for (uint k = n + lid; k < WHOLE_LANES(n); k += lsize) {
+            columns[k] = 1e18f;
+            columns[CANDIDATE_COLUMN + k] = 1e18f;
+            columns[2 * CANDIDATE_COLUMN + k] = 1e18f;
+        }
+    }
+    barrier(CLK_LOCAL_MEM_FENCE);
+    return n;
 }
 
 // Which pending points of its cell a work-group claims: CLAIM_* in contract.h.
@@ -348,14 +392,14 @@ inline bool claim_cell_points(int4 c, int coarse_steps, int claim, bool fits, vo
     return true;
 }
 
-// The field at the n_claimed points of `claimed` (table slots) from the n_cand candidates in local
-// memory: each work-item takes VECTOR_WIDTH points at once, one per vector lane.
-inline void evaluate_claimed(__local const uint* claimed, uint n_claimed, __local const float4* cand, uint n_cand,
-                             __local float* columns, volatile __global fine_key_t* keys,
+// The field at the n_claimed points of `claimed` (table slots) from the n_cand candidates in the
+// columns of gather_columns: each work-item takes VECTOR_WIDTH points at once, one per vector lane.
+inline void evaluate_claimed(__local const uint* claimed, uint n_claimed, __local const float* columns, uint n_cand,
+                             volatile __global fine_key_t* keys,
                              volatile __global uint* value_bits, float step, float r, float R, uint2 shift) {
     const uint lid = get_local_id(0), lsize = get_local_size(0);
     const float R2 = R * R, inv_R2 = 1.0f / R2;
-    candidate_columns(cand, n_cand, columns);
+    __local const float *cx = columns, *cy = columns + CANDIDATE_COLUMN, *cz = columns + 2 * CANDIDATE_COLUMN;
     ushort near[CANDIDATE_COLUMN];
     for (uint first = lid * VECTOR_WIDTH; first < n_claimed; first += lsize * VECTOR_WIDTH) {
         float px[VECTOR_WIDTH], py[VECTOR_WIDTH], pz[VECTOR_WIDTH];
@@ -364,14 +408,13 @@ inline void evaluate_claimed(__local const uint* claimed, uint n_claimed, __loca
             px[l] = x.x; py[l] = x.y; pz[l] = x.z;
         }
         const floatL X = vloadL(0, px), Y = vloadL(0, py), Z = vloadL(0, pz);
-        const uint n_near = near_candidates(X, Y, Z, columns, columns + CANDIDATE_COLUMN, columns + 2 * CANDIDATE_COLUMN,
-                                            n_cand, R2, near);
+        const uint n_near = near_candidates(X, Y, Z, cx, cy, cz, n_cand, R2, near);
         floatL K = 0.0f, Sx = 0.0f, Sy = 0.0f, Sz = 0.0f, Gx = 0.0f, Gy = 0.0f, Gz = 0.0f;
         floatL Axx = 0.0f, Axy = 0.0f, Axz = 0.0f, Ayx = 0.0f, Ayy = 0.0f, Ayz = 0.0f, Azx = 0.0f, Azy = 0.0f,
                Azz = 0.0f;
         for (uint j = 0; j < n_near; ++j) {
-            const float4 pj = cand[near[j]];
-            const floatL yx = pj.x - X, yy = pj.y - Y, yz = pj.z - Z;
+            const uint c = near[j];
+            const floatL yx = cx[c] - X, yy = cy[c] - Y, yz = cz[c] - Z;
             const floatL d2 = yx * yx + yy * yy + yz * yz;
             const floatL q0 = 1.0f - d2 * inv_R2;
             const floatL q = select((floatL)(0.0f), q0, q0 > SUPPORT_CUT);  // 0 beyond the cut: adds nothing
@@ -405,7 +448,7 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
                                  volatile __global uint* value_bits, float step, __global const float* sorted,
                                  float inv_cell, __global const ulong* bin_keys, ulong bin_capacity,
                                  __global const uint2* range, float r, float R, volatile __global int* overflow,
-                                 __local float4* cand, __local uint* bin_first, __local uint* bin_slot,
+                                 __local uint* bin_first, __local uint* bin_slot,
                                  __local uint* count, __local uint* claimed, __local uint* claimed_count,
                                  int cells_are_bins, volatile __global int* table_stats, uint2 shift,
                                  __local float* columns) {
@@ -431,11 +474,11 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
         blo = convert_int3_rtn((convert_float3(c.xyz * coarse_steps) * step - R) * inv_cell);
         bhi = convert_int3_rtn((convert_float3(c.xyz * coarse_steps + coarse_steps) * step + R) * inv_cell);
     }
-    const uint n_cand = gather_candidates(blo, bhi, sorted, bin_keys, bin_capacity, range, cand, bin_first, bin_slot, count);
+    const uint n_cand = gather_columns(blo, bhi, sorted, bin_keys, bin_capacity, range, columns, bin_first, bin_slot, count);
     const int side = coarse_steps + 1;
     const bool fits = n_cand <= MAX_CANDIDATES && side * side * side <= MAX_CELL_POINTS;
     if (!claim_cell_points(c, coarse_steps, claim, fits, keys, capacity, value_bits, overflow, claimed, claimed_count,
                            table_stats, shift))
         return;
-    evaluate_claimed(claimed, *claimed_count, cand, n_cand, columns, keys, value_bits, step, r, R, shift);
+    evaluate_claimed(claimed, *claimed_count, columns, n_cand, keys, value_bits, step, r, R, shift);
 }
