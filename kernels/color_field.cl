@@ -7,7 +7,7 @@
 // A neighbour closer than SAME_SPOT * R is the same spot, not a neighbour, for the splash and thin
 // counts: particles stacked on one point have no colour-field gradient at all, so without this a
 // pile of them would be neither surface nor splash and vanish from the mesh.
-// Uses: contract.h (FLAG_*), hash_table.cl, particle_binning.cl (gather_candidates, FOR_EACH_NEIGHBOUR_BIN).
+// Uses: contract.h (FLAG_*), hash_table.cl, particle_binning.cl (gather_candidates, bin_ranges, FOR_EACH_NEIGHBOUR_BIN).
 
 // Writes FLAG_SURFACE, FLAG_SPLASH and FLAG_THIN (contract.h) per particle.
 
@@ -47,11 +47,23 @@ inline uchar particle_flags(float3 g, int neighbours, float R) {
 // bin's particles over the 3 x 3 x 3 bins around it. N = 16: a bin's n_first particles and its +x
 // neighbour's, over the 4 x 3 x 3 bins around both; each lane then masks the column of bins
 // beyond its own 27, so its sums, in candidate order, are those of color_field_global either way.
+// Two sources of candidates (SOURCE): SERIAL_GATHER reads them in place, bin b from
+// sorted[bin_first[b]] on, bin_count[b] of them (bin_ranges); otherwise from the list in local
+// memory that gather_candidates made, bin b from cand[bin_first[b]] to the next bin's first.
+#if SERIAL_GATHER
+#define COLOR_CANDIDATES __global const float* cand
+#define COLOR_CANDIDATE(j) ((float4)(vload3((j), cand), 0.0f))
+#define COLOR_BIN_END(b) (bin_first[b] + bin_count[b])
+#else
+#define COLOR_CANDIDATES __local const float4* cand
+#define COLOR_CANDIDATE(j) (cand[j])
+#define COLOR_BIN_END(b) ((b) + 1 < 9 * width ? bin_first[(b) + 1] : n_cand)
+#endif
 #define DEFINE_COLOR_BATCHES(N)                                                                                       \
     inline void color_batches##N(uint first_particle, uint n, uint n_first, __global const float* sorted,             \
-                                 __local const float4* cand, __local const uint* bin_first, uint n_cand, float R,    \
-                                 float R2, float same2, float grad_norm, __global float* gradient,                   \
-                                 __global uchar* flags) {                                                             \
+                                 COLOR_CANDIDATES, __local const uint* bin_first, __local const uint* bin_count,      \
+                                 uint n_cand, float R, float R2, float same2, float grad_norm,                        \
+                                 __global float* gradient, __global uchar* flags) {                                   \
         const int width = N == 16 ? 4 : 3, paired = N == 16;                                                           \
         const uint lid = get_local_id(0), lsize = get_local_size(0);                                                  \
         for (uint first = lid * N; first < n; first += lsize * N) {                                                   \
@@ -71,9 +83,9 @@ inline uchar particle_flags(float3 g, int neighbours, float R) {
                 const int col = b % width;                                                                             \
                 /* lanes whose 27 bins hold this one: all of them for one bin (a constant the loop drops) */          \
                 const int##N near = paired ? (C - 1 <= col) & (col <= C + 1) : (int##N)(-1);                           \
-                const uint end = b + 1 < 9 * width ? bin_first[b + 1] : n_cand;                                        \
+                const uint end = COLOR_BIN_END(b);                                                                     \
                 for (uint j = bin_first[b]; j < end; ++j) {                                                            \
-                    const float4 pj = cand[j];                                                                         \
+                    const float4 pj = COLOR_CANDIDATE(j);                                                              \
                     const float##N dx = X - pj.x, dy = Y - pj.y, dz = Z - pj.z;                                        \
                     const float##N d2 = dx * dx + dy * dy + dz * dz;                                                   \
                     const int##N in = (d2 < R2) & near; /* the particle itself too: it adds 0 * w, no neighbour */    \
@@ -99,13 +111,14 @@ DEFINE_COLOR_BATCHES(16)
 #endif
 
 // Each work-group takes `per_group` occupied bins in turn (launching a work-group costs more than
-// a bin's work on CPU devices); a bin's particles share the 27 bins around it as candidates,
-// gathered once into local memory (gather_candidates), eight particles a work-item. Where vectors
+// a bin's work on CPU devices); a bin's particles share the 27 bins around it as candidates, eight
+// particles a work-item: read in place on CPU devices (bin_ranges: copying them to local memory
+// there was a fifth of the kernel), else gathered once into local memory (gather_candidates). Where vectors
 // are 16 wide (VECTOR_WIDTH), a bin and the next one when it is its +x neighbour go together:
 // their 16 particles or so fill one vector, over the 4 x 3 x 3 bins around both (a third more
 // candidates for twice the particles). A particle's sums do not change: each lane skips the
 // column of bins beyond its own 27, and those keep their order in the larger box. Bins whose
-// candidates do not fit use color_field_global.
+// candidates do not fit local memory use color_field_global.
 __kernel void color_field(__global const float* sorted, __global const uint* occupied, uint occupied_count,
                           uint per_group, float inv_cell,
                           __global const ulong* bin_keys, ulong bin_capacity, __global const uint2* range, float R,
@@ -129,8 +142,16 @@ __kernel void color_field(__global const float* sorted, __global const uint* occ
         }
 #endif
         ob += pair ? 2 : 1;
-        const uint n_cand = gather_candidates(bin - 1, bin + (int3)(pair ? 2 : 1, 1, 1), sorted, bin_keys, bin_capacity,
-                                              range, cand, bin_first, bin_slot, count);
+        const int3 blo = bin - 1, bhi = bin + (int3)(pair ? 2 : 1, 1, 1);
+#if SERIAL_GATHER
+        bin_ranges(blo, bhi, bin_keys, bin_capacity, range, bin_first, bin_slot);  // bin_slot: the bins' counts
+        const uint n_cand = 0;  // unused: the candidates stay in place, however many
+        __global const float* const source = sorted;
+#else
+        const uint n_cand = gather_candidates(blo, bhi, sorted, bin_keys, bin_capacity, range, cand, bin_first, bin_slot,
+                                              count);
+        __local const float4* const source = cand;
+#endif
         if (n_cand > MAX_CANDIDATES) {
             for (uint k = lid; k < n; k += lsize) {
                 float3 g;
@@ -143,10 +164,11 @@ __kernel void color_field(__global const float* sorted, __global const uint* occ
         }
 #if VECTOR_WIDTH == 16
         if (pair) {
-            color_batches16(own.x, n, own.y, sorted, cand, bin_first, n_cand, R, R2, same2, grad_norm, gradient, flags);
+            color_batches16(own.x, n, own.y, sorted, source, bin_first, bin_slot, n_cand, R, R2, same2, grad_norm, gradient,
+                            flags);
             continue;
         }
 #endif
-        color_batches8(own.x, n, n, sorted, cand, bin_first, n_cand, R, R2, same2, grad_norm, gradient, flags);
+        color_batches8(own.x, n, n, sorted, source, bin_first, bin_slot, n_cand, R, R2, same2, grad_norm, gradient, flags);
     }
 }

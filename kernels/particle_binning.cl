@@ -122,3 +122,25 @@ inline uint gather_candidates(int3 blo, int3 bhi, __global const float* sorted, 
     barrier(CLK_LOCAL_MEM_FENCE);
     return n;
 }
+
+// Where a work-group reads its candidates in place instead (CPU devices, SERIAL_GATHER: local
+// memory is ordinary memory there, so a copy only costs): bin b of blo..bhi (inclusive, at most
+// MAX_BINS, in gather_candidates' z, y, x order) holds sorted[first[b] .. first[b] + count[b]),
+// count 0 for an empty bin. All work-items call it.
+inline void bin_ranges(int3 blo, int3 bhi, __global const ulong* bin_keys, ulong bin_capacity,
+                       __global const uint2* range, __local uint* first, __local uint* count) {
+    if (get_local_id(0) == 0) {
+        const int3 bn = bhi - blo + 1;
+        int b = 0;
+        for (int z = 0; z < bn.z; ++z)
+            for (int y = 0; y < bn.y; ++y)
+                for (int x = 0; x < bn.x; ++x, ++b) {
+                    const int3 q = blo + (int3)(x, y, z);
+                    const long s = key_in_range(q) ? hash_find(bin_keys, bin_capacity, pack_key(q)) : -1;
+                    const uint2 rg = s < 0 ? (uint2)(0, 0) : range[s];
+                    first[b] = rg.x;
+                    count[b] = rg.y;
+                }
+    }
+    barrier(CLK_LOCAL_MEM_FENCE);
+}
