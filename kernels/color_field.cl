@@ -113,10 +113,10 @@ DEFINE_COLOR_BATCHES(16)
 // Each work-group takes `per_group` occupied bins in turn (launching a work-group costs more than
 // a bin's work on CPU devices); a bin's particles share the 27 bins around it as candidates, eight
 // particles a work-item: read in place on CPU devices (bin_ranges: copying them to local memory
-// there was a fifth of the kernel), else gathered once into local memory (gather_candidates). Where vectors
-// are 16 wide (VECTOR_WIDTH), a bin and the next one when it is its +x neighbour go together:
-// their 16 particles or so fill one vector, over the 4 x 3 x 3 bins around both (a third more
-// candidates for twice the particles). A particle's sums do not change: each lane skips the
+// there was a tenth of the kernel), else gathered once into local memory (gather_candidates).
+// Where vectors are 16 wide (VECTOR_WIDTH), a bin and the next one when it is its +x neighbour
+// go together: their 16 particles or so fill one vector, over the 4 x 3 x 3 bins around both (a
+// third more candidates for twice the particles). A particle's sums do not change: each lane skips the
 // column of bins beyond its own 27, and those keep their order in the larger box. Bins whose
 // candidates do not fit local memory use color_field_global.
 __kernel void color_field(__global const float* sorted, __global const uint* occupied, uint occupied_count,
