@@ -372,6 +372,25 @@ TEST_CASE("a fine point gets the same bits whichever of its cells evaluates it",
     CHECK(points == forward_points.inserted);
 }
 
+TEST_CASE("sort_by_morton orders by Morton code and keeps the order of equal codes", "[hash]") {
+    // Its radix passes skip the code bytes every item shares: coordinates near 0 (the high bytes
+    // all zero, and few distinct codes below 5), and anywhere below 2^20 (every byte varies).
+    std::mt19937 rng(7);
+    for (int top : {5, 300, 1 << 20}) {
+        std::uniform_int_distribution<int> coord(0, top - 1);
+        std::vector<std::pair<glm::ivec3, int>> items;
+        for (int i = 0; i < 20000; ++i) items.push_back({glm::ivec3(coord(rng), coord(rng), coord(rng)), i});
+        std::vector<std::pair<glm::ivec3, int>> expected = items;
+        std::stable_sort(expected.begin(), expected.end(), [](const auto& a, const auto& b) {
+            return lattice::morton(a.first) < lattice::morton(b.first);
+        });
+        lattice::sort_by_morton(items, [](const auto& item) { return item.first; });
+        INFO("coordinates below " << top);
+        REQUIRE(items.size() == expected.size());
+        for (std::size_t i = 0; i < items.size(); ++i) REQUIRE(items[i].second == expected[i].second);
+    }
+}
+
 TEST_CASE("a 32-bit key layout is chosen only where every lattice point fits it, and round-trips", "[hash]") {
     const lattice::KeyLayout x64 = lattice::key_layout_for({521, 665, 280});  // the dam break x64 lattice
     CHECK_FALSE(x64.wide);

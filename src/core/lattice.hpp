@@ -13,7 +13,8 @@
 #include <vector>
 
 #include <glm/glm.hpp>
-#include <tbb/parallel_sort.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 namespace trilevel::lattice {
 
@@ -124,15 +125,36 @@ inline std::uint64_t morton(glm::ivec3 c) {
 }
 
 /// Sorts `items` by the Morton code of coord(item), each code computed once (equal codes keep
-/// their order). For layouts and visits where only memory locality depends on the order.
+/// their order). For layouts and visits where only memory locality depends on the order. A stable
+/// radix sort over the bytes of the code that vary (four or five for a frame's bins or cells):
+/// x512's 1.2 M bins took 55 ms as a comparison sort of (code, index) pairs on 2 cores.
 template <class T, class Coord>
 void sort_by_morton(std::vector<T>& items, Coord coord) {
-    std::vector<std::pair<std::uint64_t, std::size_t>> order(items.size());
-    for (std::size_t i = 0; i < items.size(); ++i) order[i] = {morton(coord(items[i])), i};
-    tbb::parallel_sort(order.begin(), order.end());
+    struct Entry {
+        std::uint64_t code;
+        std::size_t index;
+    };
+    const std::size_t n = items.size();
+    std::vector<Entry> order(n), next(n);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1 << 14), [&](const auto& r) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) order[i] = {morton(coord(items[i])), i};
+    });
+    std::uint64_t any_set = 0, all_set = ~std::uint64_t{0};
+    for (const Entry& e : order) {
+        any_set |= e.code;
+        all_set &= e.code;
+    }
+    for (int shift = 0; shift < 64; shift += 8) {
+        if ((((any_set ^ all_set) >> shift) & 0xff) == 0) continue;  // the same byte in every code
+        std::size_t start[257] = {};
+        for (const Entry& e : order) ++start[((e.code >> shift) & 0xff) + 1];
+        for (int d = 0; d < 256; ++d) start[d + 1] += start[d];
+        for (const Entry& e : order) next[start[(e.code >> shift) & 0xff]++] = e;
+        order.swap(next);
+    }
     std::vector<T> sorted;
-    sorted.reserve(items.size());
-    for (const auto& o : order) sorted.push_back(items[o.second]);
+    sorted.reserve(n);
+    for (const Entry& e : order) sorted.push_back(items[e.index]);
     items.swap(sorted);
 }
 
