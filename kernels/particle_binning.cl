@@ -123,10 +123,10 @@ inline uint gather_candidates(int3 blo, int3 bhi, __global const float* sorted, 
     return n;
 }
 
-// Where a work-group reads its candidates in place instead (CPU devices, SERIAL_GATHER: local
-// memory is ordinary memory there, so a copy only costs): bin b of blo..bhi (inclusive, at most
-// MAX_BINS, in gather_candidates' z, y, x order) holds sorted[first[b] .. first[b] + count[b]),
-// count 0 for an empty bin. All work-items call it.
+// The ranges of bins blo..bhi (inclusive, at most MAX_BINS), in gather_candidates' z, y, x order:
+// bin b holds sorted[first[b] .. first[b] + count[b]), count 0 for an empty bin. For the colour
+// field reading its candidates in place (CPU devices: local memory is ordinary memory there, so a
+// copy only costs) and the field kernel's gather (gather_columns). All work-items call it.
 inline void bin_ranges(int3 blo, int3 bhi, __global const ulong* bin_keys, ulong bin_capacity,
                        __global const uint2* range, __local uint* first, __local uint* count) {
     if (get_local_id(0) == 0) {

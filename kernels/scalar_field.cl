@@ -195,55 +195,36 @@ inline uint near_candidates(floatL X, floatL Y, floatL Z, __local const float* c
 // beyond any support (at 1e18 in the frame's coordinates, which lie within 2^20 steps of the
 // origin: their squared distance, about 1e36, is finite and far above R^2). One pass over the
 // particles instead of a float4 list and its transposition (the gather and the transposition were
-// a third of scalar_field_cells; one pass made the kernel 0.93x). Returns the count, or MAX_CANDIDATES + 1 when they do not fit. All
-// work-items call it; SERIAL_GATHER as in gather_candidates.
+// a third of scalar_field_cells; one pass made the kernel 0.93x). The bins come from bin_ranges
+// (`bin_start`, `bin_count`: MAX_BINS each). Returns the count, or MAX_CANDIDATES + 1 when they do
+// not fit. All work-items call it; SERIAL_GATHER as in gather_candidates.
 #define WHOLE_LANES(n) (((n) + COLUMN_LANES - 1) / COLUMN_LANES * COLUMN_LANES)
 #define CANDIDATE_COLUMN WHOLE_LANES(MAX_CANDIDATES)  // each column's length (host: contract::candidate_column)
-inline void copy_to_columns(__global const float* sorted, uint from, uint n, __local float* columns, uint to) {
-    for (uint k = 0; k < n; ++k) {
-        const float3 p = vload3(from + k, sorted);
-        columns[to + k] = p.x;
-        columns[CANDIDATE_COLUMN + to + k] = p.y;
-        columns[2 * CANDIDATE_COLUMN + to + k] = p.z;
-    }
-}
 inline uint gather_columns(int3 blo, int3 bhi, __global const float* sorted, __global const ulong* bin_keys,
                            ulong bin_capacity, __global const uint2* range, __local float* columns,
-                           __local uint* bin_first, __local uint* bin_slot, __local uint* count) {
+                           __local uint* bin_start, __local uint* bin_count) {
     const uint lid = get_local_id(0), lsize = get_local_size(0);
     const int3 bn = bhi - blo + 1;
-    if (lid == 0) {
-        const bool few_bins = bn.x * bn.y * bn.z <= MAX_BINS;
-        uint total = 0;
-        int b = 0;
-        for (int z = 0; z < bn.z && few_bins; ++z)
-            for (int y = 0; y < bn.y; ++y)
-                for (int x = 0; x < bn.x; ++x, ++b) {
-                    const int3 q = blo + (int3)(x, y, z);
-                    const long s = key_in_range(q) ? hash_find(bin_keys, bin_capacity, pack_key(q)) : -1;
-                    bin_slot[b] = (uint)s;
-                    bin_first[b] = total;
-                    if (s < 0) continue;
-                    const uint2 rg = range[s];
-                    if (SERIAL_GATHER && total + rg.y <= MAX_CANDIDATES) copy_to_columns(sorted, rg.x, rg.y, columns, total);
-                    total += rg.y;
-                }
-        *count = (few_bins && total <= MAX_CANDIDATES) ? total : MAX_CANDIDATES + 1;
-    }
-    barrier(CLK_LOCAL_MEM_FENCE);
-    const uint n = *count;
-    if (n <= MAX_CANDIDATES) {
-        if (!SERIAL_GATHER)
-            for (int b = 0; b < bn.x * bn.y * bn.z; ++b) {
-                if ((int)bin_slot[b] < 0) continue;
-                const uint2 rg = range[bin_slot[b]];
-                for (uint k = lid; k < rg.y; k += lsize) copy_to_columns(sorted, rg.x + k, 1, columns, bin_first[b] + k);
-            }
-        for (uint k = n + lid; k < WHOLE_LANES(n); k += lsize) {
-            columns[k] = 1e18f;
-            columns[CANDIDATE_COLUMN + k] = 1e18f;
-            columns[2 * CANDIDATE_COLUMN + k] = 1e18f;
+    const int nbins = bn.x * bn.y * bn.z;
+    if (nbins > MAX_BINS) return MAX_CANDIDATES + 1;
+    bin_ranges(blo, bhi, bin_keys, bin_capacity, range, bin_start, bin_count);
+    uint n = 0;
+    for (int b = 0; b < nbins; ++b) n += bin_count[b];
+    if (n > MAX_CANDIDATES) return MAX_CANDIDATES + 1;
+    // CPU devices: the first work-item copies it all (the others would walk every bin for about
+    // one particle each); other devices: every work-item a share of each bin.
+    const uint first = SERIAL_GATHER ? (lid == 0 ? 0 : UINT_MAX) : lid, stride = SERIAL_GATHER ? 1 : lsize;
+    for (uint b = 0, to = 0; b < (uint)nbins && first != UINT_MAX; to += bin_count[b++])
+        for (uint k = first; k < bin_count[b]; k += stride) {
+            const float3 p = vload3(bin_start[b] + k, sorted);
+            columns[to + k] = p.x;
+            columns[CANDIDATE_COLUMN + to + k] = p.y;
+            columns[2 * CANDIDATE_COLUMN + to + k] = p.z;
         }
+    for (uint k = n + lid; k < WHOLE_LANES(n); k += lsize) {
+        columns[k] = 1e18f;
+        columns[CANDIDATE_COLUMN + k] = 1e18f;
+        columns[2 * CANDIDATE_COLUMN + k] = 1e18f;
     }
     barrier(CLK_LOCAL_MEM_FENCE);
     return n;
@@ -448,8 +429,8 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
                                  volatile __global uint* value_bits, float step, __global const float* sorted,
                                  float inv_cell, __global const ulong* bin_keys, ulong bin_capacity,
                                  __global const uint2* range, float r, float R, volatile __global int* overflow,
-                                 __local uint* bin_first, __local uint* bin_slot,
-                                 __local uint* count, __local uint* claimed, __local uint* claimed_count,
+                                 __local uint* bin_start, __local uint* bin_count, __local uint* claimed,
+                                 __local uint* claimed_count,
                                  int cells_are_bins, volatile __global int* table_stats, uint2 shift,
                                  __local float* columns) {
     const int4 c = cells[get_group_id(0)];
@@ -474,7 +455,7 @@ __kernel void scalar_field_cells(__global const int4* cells, int coarse_steps, i
         blo = convert_int3_rtn((convert_float3(c.xyz * coarse_steps) * step - R) * inv_cell);
         bhi = convert_int3_rtn((convert_float3(c.xyz * coarse_steps + coarse_steps) * step + R) * inv_cell);
     }
-    const uint n_cand = gather_columns(blo, bhi, sorted, bin_keys, bin_capacity, range, columns, bin_first, bin_slot, count);
+    const uint n_cand = gather_columns(blo, bhi, sorted, bin_keys, bin_capacity, range, columns, bin_start, bin_count);
     const int side = coarse_steps + 1;
     const bool fits = n_cand <= MAX_CANDIDATES && side * side * side <= MAX_CELL_POINTS;
     if (!claim_cell_points(c, coarse_steps, claim, fits, keys, capacity, value_bits, overflow, claimed, claimed_count,

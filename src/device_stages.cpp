@@ -425,7 +425,7 @@ CellPass run_cell_pass(OpenCLRuntime& rt, FinePoints& p, const cl::Buffer& cell_
                                 cl_int(claim), p.hash.keys, cl_ulong(p.hash.capacity), p.values, lattice_frame.step,
                                 b.sorted, 1.0f / b.cell, b.bins.keys, cl_ulong(b.bins.capacity), b.range, r, R, overflow,
                                 kernels::Local<cl_uint>{contract::kMaxBins}, kernels::Local<cl_uint>{contract::kMaxBins},
-                                kernels::Local<cl_uint>{1}, kernels::Local<cl_uint>{contract::kMaxCellPoints},
+                                kernels::Local<cl_uint>{contract::kMaxCellPoints},
                                 kernels::Local<cl_uint>{1}, cells_are_bins, p.hash.stats, key_shifts(p.layout),
                                 kernels::Local<cl_float>{3 * contract::candidate_column(rt.max_candidates())});
     CellPass pass;

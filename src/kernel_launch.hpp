@@ -134,10 +134,10 @@ inline constexpr Kernel<Buf, Buf, cl_ulong, Buf, Buf> collect_pending{"collect_p
 inline constexpr Kernel<Buf, cl_uint, Buf, Buf, float, Buf, float, Buf, cl_ulong, Buf, float, float, cl_uint2>
     scalar_field{"scalar_field"};
 //   cells coarse_steps claim keys capacity value_bits step sorted inv_cell bin_keys bin_capacity range r R
-//   overflow, bin_first, bin_slot, count, claimed, claimed_count, cells_are_bins table_stats shift, columns
+//   overflow, bin_start, bin_count, claimed, claimed_count, cells_are_bins table_stats shift, columns
 inline constexpr Kernel<Buf, cl_int, cl_int, Buf, cl_ulong, Buf, float, Buf, float, Buf, cl_ulong, Buf, float, float, Buf,
-                        Local<cl_uint>, Local<cl_uint>, Local<cl_uint>, Local<cl_uint>, Local<cl_uint>, cl_int, Buf,
-                        cl_uint2, Local<cl_float>>
+                        Local<cl_uint>, Local<cl_uint>, Local<cl_uint>, Local<cl_uint>, cl_int, Buf, cl_uint2,
+                        Local<cl_float>>
     scalar_field_cells{"scalar_field_cells"};
 
 }  // namespace trilevel::kernels
