@@ -13,6 +13,9 @@
 
 #include <fcntl.h>
 #include <unistd.h>
+#ifdef __linux__
+#include <sys/mman.h>
+#endif
 
 #include "environment.hpp"
 
@@ -58,6 +61,17 @@ std::string read_file(const std::string& path) {
     if (bad) fail(path, "read error");
     if (data.empty()) fail(path, "empty file");
     return data;
+}
+
+void release_unused_capacity([[maybe_unused]] std::vector<float>& v) {
+#ifdef __linux__
+    const auto page = static_cast<std::uintptr_t>(sysconf(_SC_PAGESIZE));
+    const auto first = (reinterpret_cast<std::uintptr_t>(v.data() + v.size()) + page - 1) & ~(page - 1);
+    const auto end = reinterpret_cast<std::uintptr_t>(v.data() + v.capacity()) & ~(page - 1);
+    // Memory of a private mapping or the heap: MADV_DONTNEED drops the pages (zero-filled if
+    // touched again). Only worth a system call from a few pages on; a failure just keeps them.
+    if (end >= first + 16 * page) madvise(reinterpret_cast<void*>(first), end - first, MADV_DONTNEED);
+#endif
 }
 
 std::string extension_of(const std::string& path) {

@@ -24,6 +24,12 @@ void require_file(const std::string& path);
 /// The whole file; Error for a missing file, a directory, an empty or unreadable file.
 std::string read_file(const std::string& path);
 
+/// Gives the whole pages of `v`'s capacity past its size back to the system, without moving `v`
+/// (shrink_to_fit would copy it, and hold both copies meanwhile): for a buffer that was filled
+/// and then cut short, such as inflated point records turned into positions in place. They read
+/// as zeros if `v` grows over them again. Linux only (madvise); elsewhere it does nothing.
+void release_unused_capacity(std::vector<float>& v);
+
 /// Lower-case extension without the dot ("vtk"), empty when there is none.
 std::string extension_of(const std::string& path);
 
