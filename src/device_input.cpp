@@ -66,7 +66,8 @@ Bounds device_bounds(OpenCLRuntime& rt, const DeviceInput& in) {
     return b;
 }
 
-BinnedParticles bin_device_positions(OpenCLRuntime& rt, const DeviceInput& in, glm::dvec3 origin, float cell) {
+BinnedParticles bin_device_positions(OpenCLRuntime& rt, const DeviceInput& in, glm::dvec3 origin, float cell,
+                                     const PairLoadCheck& check_load) {
     if (!rt.has_fp64()) throw Error("internal: the device gather needs cl_khr_fp64");
     const cl_uint n = cl_uint(in.count);
     DeviceBuffer pos = rt.buffer(std::size_t(n) * sizeof(glm::vec3), "particle positions");  // as bin_particles
@@ -80,7 +81,7 @@ BinnedParticles bin_device_positions(OpenCLRuntime& rt, const DeviceInput& in, g
     k.setArg(6, cl_double(origin.z));
     k.setArg(7, static_cast<const cl::Buffer&>(pos));
     rt.run("gather_positions", n);
-    return bin_positions(rt, std::move(pos), in.count, cell);
+    return bin_positions(rt, std::move(pos), in.count, cell, check_load);
 }
 
 std::vector<float> read_device_positions(OpenCLRuntime& rt, const DeviceInput& in) {

@@ -29,7 +29,8 @@ Bounds device_bounds(OpenCLRuntime& rt, const DeviceInput& in);
 
 /// Stage 1 on the caller's positions: gathered on the device into the binning input, relative to
 /// `origin` (rounded as the host upload rounds: needs OpenCLRuntime::has_fp64).
-BinnedParticles bin_device_positions(OpenCLRuntime& rt, const DeviceInput& in, glm::dvec3 origin, float cell);
+BinnedParticles bin_device_positions(OpenCLRuntime& rt, const DeviceInput& in, glm::dvec3 origin, float cell,
+                                     const PairLoadCheck& check_load = {});
 
 /// The positions copied to the host, x, y, z per particle (the fallback of the device path).
 std::vector<float> read_device_positions(OpenCLRuntime& rt, const DeviceInput& in);

@@ -119,7 +119,7 @@ std::uint64_t order_bins(const MappedBuffer<cl_uint>& counts, const MappedBuffer
 }  // namespace
 
 BinnedParticles bin_particles(OpenCLRuntime& rt, const float* xyz, std::size_t particles, glm::dvec3 origin, float cell,
-                              const std::function<void()>& uploaded) {
+                              const std::function<void()>& uploaded, const PairLoadCheck& check_load) {
     const cl_uint n = cl_uint(particles);
     DeviceBuffer pos = rt.buffer(n * sizeof(glm::vec3), "particle positions");  // packed xyz
     {
@@ -130,10 +130,11 @@ BinnedParticles bin_particles(OpenCLRuntime& rt, const float* xyz, std::size_t p
         });
     }
     if (uploaded) uploaded();
-    return bin_positions(rt, std::move(pos), particles, cell);
+    return bin_positions(rt, std::move(pos), particles, cell, check_load);
 }
 
-BinnedParticles bin_positions(OpenCLRuntime& rt, DeviceBuffer pos, std::size_t particles, float cell) {
+BinnedParticles bin_positions(OpenCLRuntime& rt, DeviceBuffer pos, std::size_t particles, float cell,
+                              const PairLoadCheck& check_load) {
     BinnedParticles b;
     b.count = particles;
     b.cell = cell;
@@ -158,6 +159,7 @@ BinnedParticles bin_positions(OpenCLRuntime& rt, DeviceBuffer pos, std::size_t p
         b.occupied_count = occupied.size();
         b.occupied = upload(rt, occupied, "occupied bins");
     }
+    if (check_load) check_load(b.pair_load);
     rt.queue().enqueueFillBuffer(count, cl_uint{0}, 0, cap * sizeof(cl_uint));
     b.order = rt.buffer(n * sizeof(cl_uint), "particle order");
     kernels::bin_scatter(rt, Items{n}, slot_of, n, b.range, count, b.order);

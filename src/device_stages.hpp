@@ -40,14 +40,21 @@ struct BinnedParticles {
     std::size_t occupied_count = 0;
     std::uint64_t pair_load = 0;  ///< sum over bins of count^2: the neighbour work, before it is done
 };
+/// Called with BinnedParticles::pair_load once the bins are counted, before the particles are
+/// sorted into them; it throws to stop a binning whose work would not end. Each bin's particles are
+/// put in index order one bin a work-item, quadratic in the bin's count: a pile of millions of
+/// particles on one spot would sort for hours before its neighbour sums were refused.
+using PairLoadCheck = std::function<void(std::uint64_t pair_load)>;
+
 /// Stage 1 on `n` particles (x, y, z floats), uploaded relative to `origin` (subtracted in double
 /// precision) straight into the device buffer: no host copy of them. `uploaded`, when given, is
 /// called once `xyz` is no longer read (the caller may free it there).
 BinnedParticles bin_particles(OpenCLRuntime& rt, const float* xyz, std::size_t n, glm::dvec3 origin, float cell,
-                              const std::function<void()>& uploaded = {});
+                              const std::function<void()>& uploaded = {}, const PairLoadCheck& check_load = {});
 /// Stage 1 on positions already on the device: `pos` (role "particle positions") holds `n`
 /// packed x, y, z relative to the lattice origin (device_input.hpp fills it from a caller's buffer).
-BinnedParticles bin_positions(OpenCLRuntime& rt, DeviceBuffer pos, std::size_t n, float cell);
+BinnedParticles bin_positions(OpenCLRuntime& rt, DeviceBuffer pos, std::size_t n, float cell,
+                              const PairLoadCheck& check_load = {});
 
 /// Stage 2: colour-field gradient per sorted particle; flags bit 0 surface, bit 1 splash, bit 2 thin.
 struct ParticleClasses {

@@ -700,17 +700,20 @@ Mesh Reconstructor::Impl::run_stages(const float* xyz, std::size_t n, const Para
     {
         StageScope stage(s, "binning", rt);
         check_host(double(n) * sizeof(glm::vec4), host, "uploading " + std::to_string(n) + " particles");
-        bins = device_in ? bin_device_positions(rt, *device_in, g.origin, R)
-                         : bin_particles(rt, xyz, n, g.origin, R, [&] { release_input(xyz); });
-        bins.order = DeviceBuffer{};  // sorted -> input index: only the tests read it
         // Neighbour sums cost sum(count^2) over bins of edge R; at a rest spacing of 2r a bin holds
         // (K/2)^3 particles. Far more means every particle sees thousands of others: a radius far too
-        // large, or a pile of particles, that would run for hours instead of failing.
+        // large, or a pile of particles, that would run for hours instead of failing. Checked once
+        // the bins are counted, before the particles are sorted into them (PairLoadCheck).
         const double rest = std::pow(0.5 * p.kernel_radius, 3.0);
-        if (double(bins.pair_load) > std::max(double(1u << 28), 64.0 * rest * double(n)))
-            throw Error("particle radius " + fmt(user_radius) + ": on average each particle has " +
-                        fmt(double(bins.pair_load) / double(n)) + " others within one kernel radius (about " + fmt(rest) +
-                        " at a rest spacing of 2r), too many to sum; the radius is probably too large for these particles");
+        auto check_load = [&](std::uint64_t pair_load) {
+            if (double(pair_load) > std::max(double(1u << 28), 64.0 * rest * double(n)))
+                throw Error("particle radius " + fmt(user_radius) + ": on average each particle has " +
+                            fmt(double(pair_load) / double(n)) + " others within one kernel radius (about " + fmt(rest) +
+                            " at a rest spacing of 2r), too many to sum; the radius is probably too large for these particles");
+        };
+        bins = device_in ? bin_device_positions(rt, *device_in, g.origin, R, check_load)
+                         : bin_particles(rt, xyz, n, g.origin, R, [&] { release_input(xyz); }, check_load);
+        bins.order = DeviceBuffer{};  // sorted -> input index: only the tests read it
     }
     ParticleClasses classes;
     {

@@ -197,6 +197,32 @@ TEST_CASE("binning is a stable counting sort", "[device][binning]") {
         if (s == 0 || cell(s) != cell(s - 1)) REQUIRE(seen.insert(lattice::pack(cell(s))).second);
 }
 
+// A bin's particles are put in index order one bin a work-item (quadratic in its count): the
+// neighbour-work check sees the counted bins before that sort and before the scatter, so a pile of
+// millions on one point is refused in a second (a 20 M pile sorted for longer than 150 s before).
+TEST_CASE("binning hands its pair load to the check before it scatters and sorts", "[device][binning]") {
+    auto& rt = runtime();
+    const float r = 0.025f, R = 4 * r;
+    auto x = test_particles(r, 3);
+    const BinnedParticles b = bin_particles(rt, &x[0].x, x.size(), glm::dvec3(0.0), R);
+    rt.take_kernel_times();
+    std::uint64_t seen = 0;
+    struct Refused {};
+    REQUIRE_THROWS_AS(bin_particles(rt, &x[0].x, x.size(), glm::dvec3(0.0), R, {},
+                                    [&](std::uint64_t load) {
+                                        seen = load;
+                                        throw Refused{};
+                                    }),
+                      Refused);
+    CHECK(seen == b.pair_load);
+    CHECK(seen >= x.size());  // every particle counts itself at least
+    const auto ran = rt.take_kernel_times();
+    CHECK(ran.count("bin_count") == 1);
+    CHECK(ran.count("bin_scatter") == 0);
+    CHECK(ran.count("bin_sort_buckets") == 0);
+    CHECK(ran.count("bin_gather") == 0);
+}
+
 TEST_CASE("colour field, surface and splash particles match the C++ reference", "[device][color_field]") {
     auto& rt = runtime();
     const float r = 0.025f, R = 4 * r;

@@ -115,6 +115,23 @@ TEST_CASE("absurd parameters are one-line errors naming the parameter and why", 
     std::printf("absurd parameter sets rejected through the API: %d\n", counted);
 }
 
+// A pile on one point is refused by the neighbour-work check, which sees the counted bins before
+// the particles are sorted into them (test_device_stages.cpp: a 20 M pile sorted its one bin for
+// over 150 s before the refusal; now it takes under a second).
+TEST_CASE("a pile of 2 million particles on one point is refused and the Reconstructor stays usable", "[robust][params]") {
+    const float spot[3] = {0.5f, 1.25f, -2.0f};
+    std::vector<float> pile;
+    pile.reserve(3 * 2000000);
+    for (int i = 0; i < 2000000; ++i) pile.insert(pile.end(), spot, spot + 3);
+    const auto start = std::chrono::steady_clock::now();
+    int counted = 0;
+    require_param_error(pile, with_radius(0.025f), "particle radius 0.025", "others within one kernel radius", counted);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    CHECK(seconds < 60.0);  // a hang guard: a fifth of a second here
+    // The Reconstructor is still usable.
+    require_closed(robust_reconstructor().reconstruct(spot, 1, with_radius(0.025f)), "a single particle after the pile");
+}
+
 TEST_CASE("radii outside the float kernels' band are scaled by a power of two, exactly", "[robust][params]") {
     // The same sphere with every length scaled by 2^-20 and 2^+12: r = 2.4e-8 and 102 world units.
     // R^9 under- or overflows single precision there; the pipeline runs on lengths scaled back
