@@ -74,12 +74,16 @@ inline long hash_find(const __global ulong* keys, ulong capacity, ulong key) {
     return -1;
 }
 
-// Inserts `key` and returns its slot, or -1 when the table is full (the caller raises the
-// overflow flag). *created tells whether this call put the key there.
-inline long hash_insert(volatile __global ulong* keys, ulong capacity, ulong key, int* created) {
+// Inserts `key` and returns its slot, or -1 when the table is full or already overflowed
+// (stats[0], looked at every 32 probes: probes that long mean a full table, where every key still
+// to come would scan all of it before the host could grow it, quadratic in the keys).
+// *created tells whether this call put the key there.
+inline long hash_insert(volatile __global ulong* keys, ulong capacity, ulong key, int* created,
+                        volatile __global const int* stats) {
     ulong s = home_slot(key, capacity);
     *created = 0;
     for (ulong i = 0; i < capacity; ++i) {
+        if ((i & 31) == 31 && stats[0]) return -1;
         ulong cur = keys[s];
         if (cur == key) return (long)s;
         if (cur == EMPTY_KEY) {
@@ -92,19 +96,20 @@ inline long hash_insert(volatile __global ulong* keys, ulong capacity, ulong key
     return -1;
 }
 
-// hash_insert keeping the table's counters: stats[0] = overflow flag, stats[1] = keys newly
+// The counters a table keeps through its inserts: stats[0] = overflow flag, stats[1] = keys newly
 // inserted (the host grows the table when it passes its load limit: 1/2, fine points 0.85).
-// The counters' side of an insert that returned slot `s` (-1: full) and `created`.
-inline long count_insert(long s, int created, volatile __global int* stats) {
-    if (created) atomic_inc(&stats[1]);
-    if (s < 0) atomic_or(&stats[0], 1);
-    return s;
-}
 
+// hash_insert with the counters. Past half the table's slots it raises the overflow flag too: the
+// host grows a table that holds more than that anyway (needs_growth), and the keys still to come
+// then stop at their 32nd probe instead of filling the table to its last slot. Particles far apart
+// for their radius need up to 27 coarse cells each where the table was sized for 0.75: 64 k of
+// them took 38 s in mark_surface_cells, each key scanning a full table.
 inline long hash_insert_counted(volatile __global ulong* keys, ulong capacity, ulong key, volatile __global int* stats) {
     int created;
-    const long s = hash_insert(keys, capacity, key, &created);
-    return count_insert(s, created, stats);
+    const long s = hash_insert(keys, capacity, key, &created, stats);
+    if (created && (ulong)atomic_inc(&stats[1]) >= capacity / 2) atomic_or(&stats[0], 1);
+    if (s < 0) atomic_or(&stats[0], 1);
+    return s;
 }
 
 // The fine-point table stores lattice point p as fine_key(p): its coordinates packed with the
@@ -167,12 +172,15 @@ inline long fine_insert(volatile __global fine_key_t* keys, ulong capacity, int3
     return -1;
 }
 
-// fine_insert keeping the table's counters, as hash_insert_counted.
+// fine_insert with the counters. No early overflow: the fine-point table is sized for the points
+// before they are inserted (ensure_fine_room).
 inline long fine_insert_counted(volatile __global fine_key_t* keys, ulong capacity, int3 p, uint2 shift,
                                 volatile __global int* stats) {
     int created;
     const long s = fine_insert(keys, capacity, p, shift, &created);
-    return count_insert(s, created, stats);
+    if (created) atomic_inc(&stats[1]);
+    if (s < 0) atomic_or(&stats[0], 1);
+    return s;
 }
 
 // Moves every point (and its value) of an old fine-point table into a larger one.

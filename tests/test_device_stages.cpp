@@ -1,6 +1,7 @@
 // Every OpenCL stage against its plain C++ reference on the same input (docs/design.md §8), and the
 // lock-free hash under heavy duplication.
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <memory>
@@ -221,6 +222,33 @@ TEST_CASE("binning hands its pair load to the check before it scatters and sorts
     CHECK(ran.count("bin_scatter") == 0);
     CHECK(ran.count("bin_sort_buckets") == 0);
     CHECK(ran.count("bin_gather") == 0);
+}
+
+// Particles far apart for their radius each need a bin and 8 coarse cells of their own, where the
+// tables start at 0.125 bins and 0.75 cells a particle. A table that ran full made every key still
+// to come scan all of it before the host could grow it: 64 k such particles took 38 s in
+// mark_surface_cells. Now a table past half its slots raises its overflow flag, and long probes
+// stop there (hash_insert_counted): the same cells, in a fraction of a second.
+TEST_CASE("bins and coarse cells of particles far apart for their radius grow to fit in linear time", "[device][surface_cells]") {
+    auto& rt = runtime();
+    const float r = 0.025f, R = 4 * r;
+    std::vector<glm::vec3> x;
+    for (int i = 0; i < 40; ++i)
+        for (int j = 0; j < 40; ++j)
+            for (int k = 0; k < 40; ++k) x.push_back(glm::vec3(0.113f, 0.127f, 0.141f) + 20 * r * glm::vec3(i, j, k));
+    const auto start = std::chrono::steady_clock::now();
+    const BinnedParticles b = bin_particles(rt, &x[0].x, x.size(), glm::dvec3(0.0), R);
+    CHECK(b.occupied_count == x.size());  // a bin each
+    ParticleClasses c = classify_particles(rt, b, r, R);
+    CHECK(c.splash == x.size());  // alone: splash, and so surface
+    const SurfaceCells sc = surface_cells(rt, b, c, r, R, 4 * r, 2.0f, 3);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    // The box x +- 2r over cells of 4r spans 2 x 2 x 2 cells, none shared between particles 20 r apart.
+    REQUIRE(sc.cells.size() == 8 * x.size());
+    std::set<std::uint64_t> keys;
+    for (const CoarseCell& cell : sc.cells) keys.insert(lattice::pack(cell.coord));
+    CHECK(keys.size() == sc.cells.size());
+    CHECK(seconds < 20.0);  // a hang guard: under a second here, 38 s and more before
 }
 
 TEST_CASE("colour field, surface and splash particles match the C++ reference", "[device][color_field]") {
