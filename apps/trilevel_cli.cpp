@@ -157,10 +157,10 @@ trilevel::Params make_params(const ReconstructArgs& a) {
     if (a.mode == "adaptive") p.mode = trilevel::Mode::Adaptive;
     else if (a.mode == "uniform") p.mode = trilevel::Mode::Uniform;
     else throw UsageError("--mode must be adaptive or uniform, got '" + a.mode + "'");
+    if (a.device < -1)  // -1: not given (the first GPU, else the first CPU device)
+        throw UsageError("--device must be a device index (0, 1, ...; see 'trilevel devices'), got " + std::to_string(a.device));
     p.cell = positive("cell (--cell)", a.cell);
-    const double q = 4.0 / p.cell;
-    if (std::fabs(q - std::round(q)) > 1e-6 || std::round(q) < 1)
-        throw UsageError("cell (--cell) " + a.cell + ": 4/cell must be an integer (e.g. 0.5, 1, 2 or 4)");
+    if (!trilevel::is_uniform_cell(p.cell)) throw UsageError("cell (--cell) " + a.cell + " " + trilevel::kUniformCellRule);
     if (!a.threshold.empty()) p.curvature_threshold = positive("curvature threshold (--curvature-threshold)", a.threshold);
     if (!a.level2_tolerance.empty()) {
         const double t = parse_number("--level2-tolerance", a.level2_tolerance);
@@ -334,7 +334,7 @@ trilevel::ParticleSet read_while_starting(std::optional<trilevel::Reconstructor>
     std::exception_ptr start_failure;
     if (!rec) {  // compiled kernels and buffers are reused across frames
         try {
-            rec.emplace(a.device, say_compiling);
+            rec.emplace(a.device, a.quiet ? nullptr : &say_compiling);  // -q: nothing on success
         } catch (...) {
             start_failure = std::current_exception();
         }
@@ -645,7 +645,7 @@ int run(int argc, char** argv) {
                     "Particle attribute to interpolate at the vertices (e.g. velocity; .vtk/.vtu/.bgeo input; repeatable)")
         ->allow_extra_args(false);  // one name per --attribute, so a following input file stays positional
     rec->add_option(flag("memory_limit_bytes"), ra.memory, help("memory_limit_bytes", "(bytes, or e.g. 2G)"));
-    rec->add_flag("-q,--quiet", ra.quiet, "Print nothing on success");
+    rec->add_flag("-q,--quiet", ra.quiet, "Print nothing on success but warnings (dropped particles, an empty clip box)");
     rec->add_option(flag("level_hysteresis"), ra.hysteresis, help("level_hysteresis"));
     auto* particle_box = rec->add_option(flag("particle_box"), ra.particle_box, help("particle_box"));
     auto* remove_below = rec->add_option(flag("remove_components_below"), ra.remove_below, help("remove_components_below"));

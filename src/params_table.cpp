@@ -37,7 +37,7 @@ std::vector<ParamInfo> make_table() {
         "'adaptive' (3-level grid: cells of 2r on flat water, r on curved and splashing water) or 'uniform' "
         "(one cell size everywhere)",
         [](const Params& p) -> ParamValue { return std::string(p.mode == Mode::Adaptive ? "adaptive" : "uniform"); });
-    add("cell", "--cell", "cell", "Uniform mode: marching-cubes cell size in r; 4/cell must be an integer (e.g. 0.5, 1, 2 or 4)",
+    add("cell", "--cell", "cell", "Uniform mode: marching-cubes cell size in r: 4/n for an even n up to 64 (e.g. 2, 1, 0.5 or 0.25)",
         [](const Params& p) -> ParamValue { return p.cell; });
     add("kernel_radius", "--kernel-radius", "kernel_radius", "SPH kernel support R in multiples of r, in [1, 16]",
         [](const Params& p) -> ParamValue { return p.kernel_radius; });

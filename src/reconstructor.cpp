@@ -44,6 +44,15 @@ namespace trilevel {
 
 float default_curvature_threshold() { return constants::kDefaultCurvatureThreshold; }
 
+const char* const kUniformCellRule = "must be 4/n radii for an even n from 2 to 64 (e.g. 2, 1, 0.5 or 0.25)";
+
+bool is_uniform_cell(float cell) {
+    if (!std::isfinite(cell) || cell <= 0.0f) return false;
+    const float steps = constants::kCoarseCell / cell;
+    const float n = std::round(steps);
+    return std::fabs(steps - n) <= 1e-4f * n && n >= 2.0f && n <= 64.0f && std::fmod(n, 2.0f) == 0.0f;
+}
+
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -60,9 +69,7 @@ void validate(const Params& p) {
         throw Error("kernel radius must lie in [1, 16] particle radii, got " + std::to_string(p.kernel_radius));
     if (p.mode == Mode::Uniform) {
         require_positive(p.cell, "cell size", "in particle radii");
-        float steps = constants::kCoarseCell / p.cell;
-        if (std::fabs(steps - std::round(steps)) > 1e-4f || std::round(steps) < 1.0f || std::round(steps) > 64.0f)
-            throw Error("cell size " + std::to_string(p.cell) + " must divide the coarse cell of 4 radii (e.g. 0.5, 1, 2, 4)");
+        if (!is_uniform_cell(p.cell)) throw Error("cell size " + fmt(p.cell) + " " + kUniformCellRule);
     }
     if (p.normals != NormalMode::None && p.normals != NormalMode::Gradient && p.normals != NormalMode::Area)
         throw Error("normals must be NormalMode::None, Gradient or Area");

@@ -56,7 +56,7 @@ TEST_CASE("CLI: reconstruct rejects bad inputs and parameters before writing any
     require_cli_error(tmp, base + "-r inf", out, "radius (-r) must be finite");
     require_cli_error(tmp, base + "-r abc", out, "radius (-r) must be a number");
     require_cli_error(tmp, base + "-r 1e60", out, "float range");
-    require_cli_error(tmp, base + "-r 0.025 --cell 3", out, "4/cell must be an integer");
+    require_cli_error(tmp, base + "-r 0.025 --cell 3", out, "must be 4/n radii for an even n from 2 to 64");
     require_cli_error(tmp, base + "-r 0.025 --cell 0", out, "cell (--cell) must be > 0");
     require_cli_error(tmp, base + "-r 0.025 --kernel-radius -4", out, "kernel radius");
     require_cli_error(tmp, base + "-r 0.025 --curvature-threshold nan", out, "curvature threshold");
@@ -65,6 +65,8 @@ TEST_CASE("CLI: reconstruct rejects bad inputs and parameters before writing any
     require_cli_error(tmp, base + "-r 0.025 --threads 0", out, "--threads must be a whole number");
     require_cli_error(tmp, base + "-r 0.025 --threads -2", out, "--threads");
     require_cli_error(tmp, base + "-r 0.025 --threads two", out, "--threads must be a whole number");
+    require_cli_error(tmp, base + "-r 0.025 --device=-2", out, "--device must be a device index (0, 1, ...; see 'trilevel devices'), got -2");
+    require_cli_error(tmp, base + "-r 0.025 --device 99", out, "OpenCL device 99 does not exist");
     require_cli_error(tmp, base, out, "radius");
     require_cli_error(tmp, "reconstruct '" + in + "' -o '" + tmp.file("missing/out.ply") + "' -r 0.025", tmp.file("missing/out.ply"),
                       "does not exist");

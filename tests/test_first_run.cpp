@@ -63,12 +63,20 @@ TEST_CASE("a Reconstructor announces a compile from source, and the statistics t
     CHECK(json.find("\"kernel_compile\"") == std::string::npos);
 }
 
-TEST_CASE("the CLI says once that it compiles the kernels, and --stats separates that time", "[first_run][cli]") {
-    TempDir tmp, cache;
+TEST_CASE("the CLI says once that it compiles the kernels unless quiet, and --stats separates that time", "[first_run][cli]") {
+    TempDir tmp, cache, quiet_cache;
     REQUIRE(run_cli_raw(tmp, "generate falling-drop -o '" + tmp.file("d_{}.xyz") + "' --radius 0.05 --frames 3").code == 0);
-    const std::string args = "reconstruct '" + tmp.file("d_{}.xyz") + "' -r 0.05 -q -o '" + tmp.file("m_{}.ply") +
+    const std::string args = "reconstruct '" + tmp.file("d_{}.xyz") + "' -r 0.05 -o '" + tmp.file("m_{}.ply") +
                              "' --stats '" + tmp.file("s_{}.json") + "'";
     std::string device;
+    {
+        ScopedEnv env("TRILEVEL_CACHE_DIR", quiet_cache.path.c_str());
+        const CliResult cold = run_cli_raw(tmp, args + " -q");  // -q prints nothing on success, this either
+        REQUIRE(cold.code == 0);
+        CHECK(cold.err.empty());
+        CHECK(cold.out.empty());
+        CHECK(slurp(tmp.file("s_0000.json")).find("\"kernel_compile\"") != std::string::npos);  // it did compile
+    }
     {
         ScopedEnv env("TRILEVEL_CACHE_DIR", cache.path.c_str());
         const CliResult cold = run_cli_raw(tmp, args);  // three frames, one Reconstructor: said once
@@ -83,7 +91,7 @@ TEST_CASE("the CLI says once that it compiles the kernels, and --stats separates
         CHECK(second.find("\"kernel_compile\"") == std::string::npos);
         CHECK(second.find("\"kernel_load\"") == std::string::npos);
 
-        const CliResult warm = run_cli_raw(tmp, args);  // the cache holds the program now: silent
+        const CliResult warm = run_cli_raw(tmp, args);  // the cache holds the program now: no notice
         REQUIRE(warm.code == 0);
         CHECK(warm.err.empty());
         const std::string again = slurp(tmp.file("s_0000.json"));
@@ -91,7 +99,7 @@ TEST_CASE("the CLI says once that it compiles the kernels, and --stats separates
         CHECK(again.find("\"kernel_compile\"") == std::string::npos);
     }
     ScopedEnv off("TRILEVEL_CACHE_DIR", "");  // caching off: compiled on every start, and it says so
-    const CliResult uncached = run_cli_raw(tmp, "reconstruct '" + tmp.file("d_0000.xyz") + "' -r 0.05 -q -o '" + tmp.file("u.ply") + "'");
+    const CliResult uncached = run_cli_raw(tmp, "reconstruct '" + tmp.file("d_0000.xyz") + "' -r 0.05 -o '" + tmp.file("u.ply") + "'");
     REQUIRE(uncached.code == 0);
     CHECK(uncached.err == "trilevel: compiling OpenCL kernels for " + device +
                               " (on every start: caching is off, see TRILEVEL_CACHE_DIR)\n");

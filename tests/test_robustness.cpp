@@ -85,11 +85,12 @@ TEST_CASE("absurd parameters are one-line errors naming the parameter and why", 
         p.cell = c;
         require_param_error(x, p, "cell size", "must be finite and > 0", counted);
     }
-    for (float c : {3.0f, 0.3f, 8.0f, 1e-30f}) {
+    // 4/cell must be an even whole number up to 64: 4 (n = 1), 0.8 (5), 4/3 (3) and 1/32 (128) are not.
+    for (float c : {3.0f, 0.3f, 8.0f, 1e-30f, 4.0f, 0.8f, 4.0f / 3.0f, 0.03125f}) {
         Params p = with_radius(0.025f);
         p.mode = Mode::Uniform;
         p.cell = c;
-        require_param_error(x, p, "cell size", "must divide the coarse cell", counted);
+        require_param_error(x, p, "cell size", "must be 4/n radii for an even n from 2 to 64", counted);
     }
     for (float t : {-1.0f, nan, inf}) {
         Params p = with_radius(0.025f);
@@ -111,7 +112,7 @@ TEST_CASE("absurd parameters are one-line errors naming the parameter and why", 
         p.memory_limit_bytes = 64 * 1024;
         require_param_error(x, p, "budget", "use a larger cell or a smaller domain", counted);
     }
-    CHECK(counted == 33);
+    CHECK(counted == 37);
     std::printf("absurd parameter sets rejected through the API: %d\n", counted);
 }
 

@@ -83,7 +83,7 @@ class TrilevelSettings(bpy.types.PropertyGroup):
                ('UNIFORM', "Uniform", "Cells of the given size everywhere")])
     cell: bpy.props.FloatProperty(
         name="Cell", default=1.0, min=0.25, max=4.0, update=_settings_changed,
-        description="Uniform mode: marching-cubes cell size in multiples of r (4/cell must be an integer)")
+        description="Uniform mode: marching-cubes cell size in multiples of r (4/n for an even n up to 64: 2, 1, 0.5, 0.25, ...)")
     normals: bpy.props.EnumProperty(
         name="Normals", default='GRADIENT', update=_settings_changed,
         items=[('NONE', "Faces", "Blender's own normals of the triangles"),

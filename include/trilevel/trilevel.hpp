@@ -67,7 +67,7 @@ struct Params {
     float particle_radius = 0.0f;      ///< r, in world units (half the rest spacing); required, > 0
     float kernel_radius = 4.0f;        ///< R, support of the SPH kernels, in r (docs/design.md §2)
     Mode mode = Mode::Adaptive;        ///< see Mode
-    float cell = 1.0f;                 ///< uniform mode: marching-cubes cell size in r; 4/cell must be an integer
+    float cell = 1.0f;                 ///< uniform mode: marching-cubes cell size in r (is_uniform_cell)
     float curvature_threshold = 0.0f;  ///< adaptive mode: mean cell curvature (paper eq. 3) at which a
                                        ///< coarse cell becomes level 3; 0 picks the calibrated default.
                                        ///< Dimensionless: sum over neighbours of (1 - n_i.n_j)(1 - d/R)
@@ -133,6 +133,13 @@ struct Attribute {
 };
 using ParticleAttribute = Attribute;  ///< values per particle, in particle order
 using VertexAttribute = Attribute;    ///< values per mesh vertex, in vertex order
+
+/// Whether `cell` is a Params::cell that uniform mode takes: 4/cell an even whole number from 2 to
+/// 64, i.e. 2, 1, 2/3, 0.5, 0.4, ... 1/16 r. The coarse cell of 4 r is cut into that many lattice
+/// steps, and the mesher closes cracks on the lattice of every other point, so the count is even.
+bool is_uniform_cell(float cell);
+/// The rule is_uniform_cell checks, in words, for messages.
+extern const char* const kUniformCellRule;
 
 /// Calibrated default of Params::curvature_threshold (dimensionless; docs/calibration.md, "Levels and choosing the threshold").
 float default_curvature_threshold();
