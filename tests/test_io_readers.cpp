@@ -203,6 +203,16 @@ TEST_CASE("hostile and malformed particle files are rejected with one-line error
     require_rejected(tmp, "inf.vtk", header + "POINTS 1 float\n" + be_bytes(1.0f) + be_bytes(INFINITY) + be_bytes(0.0f), "non-finite");
     require_rejected(tmp, "badnumber.vtk", "# vtk DataFile Version 4.2\nx\nASCII\nDATASET POLYDATA\nPOINTS 1 float\n0 zero 0\n", "line 6: malformed number");
     require_rejected(tmp, "shortascii.vtk", "# vtk DataFile Version 4.2\nx\nASCII\nDATASET POLYDATA\nPOINTS 2 float\n0 0 0 1\n", "truncated ASCII");
+    {  // binary coordinates cannot tell a wrong count: the keyword line after them must follow
+        const std::string n = std::to_string(pts.size() / 3), good = vtk_binary(pts, "4.2", "POLYDATA", false);
+        const std::size_t at = good.find("POINTS " + n) + 7;
+        require_rejected(tmp, "countplus.vtk", good.substr(0, at) + std::to_string(pts.size() / 3 + 1) + good.substr(at + n.size()),
+                         "'0' follows the binary POINTS: expected a section such as CELLS or POINT_DATA");
+        require_rejected(tmp, "countminus.vtk", good.substr(0, at) + std::to_string(pts.size() / 3 - 1) + good.substr(at + n.size()),
+                         "binary data follows the binary POINTS");
+        write_bytes(tmp.file("ok.vtk"), good);  // the right count: read as written
+        require_same(read_particles(tmp.file("ok.vtk")), pts);
+    }
     require_rejected(tmp, "toolarge.vtk", "# vtk DataFile Version 4.2\nx\nASCII\nDATASET POLYDATA\nPOINTS 1 double\n1e300 0 0\n", "non-finite");
 
     // VTU

@@ -235,6 +235,27 @@ std::vector<float> read_points_section(VtkCursor& cur, bool binary, bool keep_in
     }
 }
 
+/// After binary POINTS, what follows must be the next section's keyword line, or nothing: binary
+/// coordinates cannot tell a POINTS count larger than the points written, which reads the start of
+/// the next section as coordinates. (ASCII coordinates meet the keyword as a malformed number.)
+void require_section_after_binary_points(VtkCursor& cur) {
+    static constexpr std::string_view kSections[] = {"CELLS", "VERTICES", "LINES", "POLYGONS", "TRIANGLE_STRIPS",
+                                                     "OFFSETS", "CONNECTIVITY", "CELL_TYPES", "POINT_DATA",
+                                                     "CELL_DATA", "FIELD", "METADATA"};
+    const auto m = cur.mark();
+    const auto l = cur.line();
+    if (!l) return;
+    const std::string kw = upper(split_ws(*l)[0]);
+    if (std::find(std::begin(kSections), std::end(kSections), kw) != std::end(kSections)) {
+        cur.reset(m);
+        return;
+    }
+    const std::string_view head = l->substr(0, 40);
+    const bool text = std::all_of(head.begin(), head.end(), [](unsigned char c) { return c >= 0x20 && c < 0x7f; });
+    cur.error((text ? "'" + std::string(head) + "'" : std::string("binary data")) +
+              " follows the binary POINTS: expected a section such as CELLS or POINT_DATA (does the POINTS count match the points in the file?)");
+}
+
 /// The sections after POINTS: cells are skipped, POINT_DATA / CELL_DATA arrays are read when
 /// asked for (point arrays only) and skipped otherwise.
 class VtkDataWalker {
@@ -435,6 +456,7 @@ ParticleSet read_vtk(const ReadRequest& r) {
     const bool binary = read_header(cur);
     ParticleSet set;
     set.positions = read_points_section(cur, binary, r.keep_invalid);
+    if (binary) require_section_after_binary_points(cur);
     AttributeSink sink(r);
     if (!r.attributes.empty()) VtkDataWalker(cur, binary, set.size(), sink).run();  // positions only: stop at POINTS
     set.attributes = sink.finish(set.size());
