@@ -11,6 +11,27 @@
 
 namespace trilevel::cli {
 
+bool same_file(const std::string& a, const std::string& b) {
+    if (a.empty() || b.empty()) return false;
+    std::error_code ec;
+    if (std::filesystem::exists(a, ec) && std::filesystem::exists(b, ec)) {
+        const bool same = std::filesystem::equivalent(a, b, ec);
+        if (!ec) return same;
+    }
+    const auto ca = std::filesystem::weakly_canonical(a, ec);
+    if (ec) return a == b;
+    const auto cb = std::filesystem::weakly_canonical(b, ec);
+    return ec ? a == b : ca == cb;
+}
+
+void require_distinct_outputs(const std::string& input, const std::string& output, const std::string& stats,
+                              const std::string& what) {
+    const std::string frame = what.empty() ? "" : what + ": ";
+    if (same_file(input, output)) throw UsageError(frame + "the mesh " + output + " would overwrite the input");
+    if (same_file(input, stats)) throw UsageError(frame + "the statistics " + stats + " would overwrite the input");
+    if (same_file(output, stats)) throw UsageError(frame + "the statistics " + stats + " would overwrite the mesh");
+}
+
 bool is_sequence_pattern(const std::string& pattern) { return pattern.find("{}") != std::string::npos; }
 
 std::string frame_path(const std::string& pattern, const std::string& number) {
@@ -176,6 +197,7 @@ SequencePlan plan_frame_sequence(const std::string& input, const std::string& ou
         throw UsageError("--start " + std::to_string(*options.start) + " is after --end " + std::to_string(*options.end));
     SequencePlan plan;
     plan.jobs = select_jobs(input, output, stats, options);
+    for (const FrameJob& job : plan.jobs) require_distinct_outputs(job.input, job.output, job.stats, "frame " + job.frame.number);
     plan.selected = plan.jobs.size();
     if (options.skip_existing)
         plan.jobs.erase(std::remove_if(plan.jobs.begin(), plan.jobs.end(), outputs_exist), plan.jobs.end());

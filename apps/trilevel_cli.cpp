@@ -430,6 +430,7 @@ int run_reconstruct(const ReconstructArgs& a) {
     check_output(trilevel::cli::frame_path(a.output, "0"), {"ply", "obj", "vtk", "vtp", "vtu"}, "mesh");
     if (!a.stats.empty()) check_output(trilevel::cli::frame_path(a.stats, "0"), {"json"}, "statistics");
     if (!sequence) {
+        trilevel::cli::require_distinct_outputs(a.input, a.output, a.stats, "");
         std::optional<trilevel::Reconstructor> rec;
         reconstruct_file(rec, params, a, a.input, a.output, a.stats);
         return 0;

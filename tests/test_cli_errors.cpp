@@ -35,6 +35,24 @@ void require_cli_error(const TempDir& tmp, const std::string& args, const std::s
 
 }  // namespace
 
+TEST_CASE("CLI: a mesh that would overwrite its input is refused and the input kept", "[cli]") {
+    TempDir tmp;
+    const std::string in = tmp.file("in.ply");
+    trilevel::write_particles(in, trilevel::generate_scene("block", 0.025f));
+    const std::string before = slurp(in);
+    for (const std::string& out : {in, tmp.file("./in.ply"), tmp.file("sub/../in.ply")}) {
+        std::filesystem::create_directories(tmp.file("sub"));
+        require_cli_error(tmp, "reconstruct '" + in + "' -o '" + out + "' -r 0.025", "", "would overwrite the input");
+    }
+    std::filesystem::create_symlink(in, tmp.file("link.ply"));
+    require_cli_error(tmp, "reconstruct '" + in + "' -o '" + tmp.file("link.ply") + "' -r 0.025", "", "the mesh " + tmp.file("link.ply") + " would overwrite the input");
+    for (const char* frame : {"f_0001.ply", "f_0002.ply"}) std::filesystem::copy_file(in, tmp.file(frame));
+    require_cli_error(tmp, "reconstruct '" + tmp.file("f_{}.ply") + "' -o '" + tmp.file("f_{}.ply") + "' -r 0.025", "",
+                      "frame 0001: the mesh " + tmp.file("f_0001.ply") + " would overwrite the input");
+    CHECK(slurp(in) == before);
+    CHECK(slurp(tmp.file("f_0001.ply")) == before);
+}
+
 TEST_CASE("CLI: reconstruct rejects bad inputs and parameters before writing anything", "[cli]") {
     TempDir tmp;
     const std::string in = tmp.file("in.xyz"), out = tmp.file("out.ply");
