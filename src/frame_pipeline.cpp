@@ -223,8 +223,10 @@ struct FramePipeline::Impl {
     }
 };
 
-FramePipeline::FramePipeline(Reconstructor& reconstructor, const Params& params, Sink sink)
-    : impl_(std::make_unique<Impl>(reconstructor, params, std::move(sink))) {}
+FramePipeline::FramePipeline(Reconstructor& reconstructor, const Params& params, Sink sink) {
+    check_params(params);  // at once, rather than in every frame's result
+    impl_ = std::make_unique<Impl>(reconstructor, params, std::move(sink));
+}
 
 FramePipeline::~FramePipeline() {
     if (impl_) impl_->stop();

@@ -93,6 +93,12 @@ void validate(const Params& p) {
                     " bytes cannot hold even the smallest buffers; give at least 4 KiB (0: the device's and host's memory)");
 }
 
+}  // namespace
+
+void check_params(const Params& params) { validate(params); }
+
+namespace {
+
 /// Checks of the radius against the particles themselves (docs/design.md §4: clear errors, no garbage):
 /// float32 coordinates must resolve the radius, and the kernel radius must stay in float range.
 void validate_against(const Params& p, const Bounds& b) {

@@ -242,6 +242,25 @@ TEST_CASE("FramePipeline: triangulation beside the next frame's device stages gi
     }
 }
 
+TEST_CASE("FramePipeline: parameters every frame would refuse are an error at construction", "[pipeline]") {
+    trilevel::Reconstructor rec;
+    trilevel::Params p = sequence_params();
+    p.kernel_radius = 100.0f;
+    int frames = 0;
+    CHECK_THROWS_WITH(trilevel::FramePipeline(rec, p, [&](trilevel::PipelineFrame&) { ++frames; }),
+                      "kernel radius must lie in [1, 16] particle radii, got 100.000000");
+    p = sequence_params();
+    p.mode = trilevel::Mode::Uniform;
+    p.cell = 3.0f;
+    CHECK_THROWS_WITH(trilevel::FramePipeline(rec, p, [&](trilevel::PipelineFrame&) { ++frames; }),
+                      Catch::Contains("cell size 3 must be 4/n radii"));
+    CHECK(frames == 0);
+    trilevel::FramePipeline ok(rec, sequence_params(), [&](trilevel::PipelineFrame& f) { frames += f.error ? 0 : 1; });
+    ok.push(falling_drop(0));
+    ok.finish();
+    CHECK(frames == 1);  // the Reconstructor is as good as before
+}
+
 TEST_CASE("FramePipeline: a frame reconstruct rejects fails alone, and a sink that throws stops the pipeline", "[pipeline]") {
     trilevel::Reconstructor rec;
     const trilevel::Params p = sequence_params();

@@ -55,7 +55,8 @@ public:
 
     /// `reconstructor` is used by the worker thread until finish() returns (or this is destroyed):
     /// do not call it, move it or destroy it meanwhile. Its level history carries on from before
-    /// and on after. `params` apply to every frame.
+    /// and on after. `params` apply to every frame; Error at once for parameters that every frame
+    /// would refuse (check_params).
     FramePipeline(Reconstructor& reconstructor, const Params& params, Sink sink);
     /// finish(), with any error it would throw dropped.
     ~FramePipeline();

@@ -141,6 +141,10 @@ bool is_uniform_cell(float cell);
 /// The rule is_uniform_cell checks, in words, for messages.
 extern const char* const kUniformCellRule;
 
+/// Throws Error, one line naming the parameter, for parameters that every frame would refuse
+/// (Reconstructor::reconstruct checks them first; FramePipeline at construction).
+void check_params(const Params& params);
+
 /// Calibrated default of Params::curvature_threshold (dimensionless; docs/calibration.md, "Levels and choosing the threshold").
 float default_curvature_threshold();
 
