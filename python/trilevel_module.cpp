@@ -6,6 +6,8 @@
 //
 // Positions that are already C-contiguous float32 (n, 3) arrays are read in place; anything else
 // is converted once. Returned arrays own the library's vectors (no copy): their base is a capsule.
+#include <cstdint>
+#include <filesystem>
 #include <initializer_list>
 #include <memory>
 #include <mutex>
@@ -18,6 +20,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
 
 #include "trilevel/io.hpp"
 #include "trilevel/params_table.hpp"
@@ -59,6 +62,27 @@ std::size_t rows_of_three(const Array<T>& a, const char* name) {
     if (a.ndim() != 2 || a.shape(1) != 3)
         throw trilevel::Error(std::string(name) + " must be an array of shape (n, 3), got shape " + shape_of(a));
     return std::size_t(a.shape(0));
+}
+
+/// An array of whole numbers (any integer dtype; an empty array of any dtype) as int64: floats
+/// would be truncated and out-of-range values wrapped by a cast, silently.
+Array<std::int64_t> whole_numbers(const py::object& value, const char* name) {
+    const py::array a = py::array::ensure(value);  // lists and other sequences as numpy reads them
+    if (!a) {
+        PyErr_Clear();
+        throw trilevel::Error(std::string(name) + " must be an array of integers");
+    }
+    const char kind = a.dtype().kind();
+    if (a.size() > 0 && kind != 'i' && kind != 'u')
+        throw trilevel::Error(std::string(name) + " must be an integer array, got dtype " +
+                              py::cast<std::string>(py::str(a.dtype())));
+    if (kind == 'u' && a.dtype().itemsize() == 8) {  // uint64 above int64's range would wrap in the cast
+        const auto u = py::cast<Array<std::uint64_t>>(a);
+        for (py::ssize_t i = 0; i < u.size(); ++i)
+            if (u.data()[i] > std::uint64_t(INT64_MAX))
+                throw trilevel::Error(std::string(name) + ": " + std::to_string(u.data()[i]) + " is out of range");
+    }
+    return py::cast<Array<std::int64_t>>(a);
 }
 
 /// The default of the Python keyword `python` (trilevel/params_table.hpp: Params{}'s value).
@@ -147,6 +171,7 @@ trilevel::Params make_params(float particle_radius, const ReconstructOptions& o)
     else if (*o.normals == "gradient") p.normals = trilevel::NormalMode::Gradient;
     else if (*o.normals == "area") p.normals = trilevel::NormalMode::Area;
     else throw trilevel::Error("normals must be None, 'gradient' or 'area', got '" + *o.normals + "'");
+    trilevel::check_params(p);  // at once: FramePipeline's frames would each fail later
     return p;
 }
 
@@ -362,6 +387,19 @@ void define_pipeline_init(py::class_<PyFramePipeline>& cls, std::tuple<Option...
     }, args);
 }
 
+/// Defines _check_params(particle_radius, *, <MeshOptionTypes' keywords>): raises trilevel.Error as
+/// reconstruct would for the options alone, with no device (trilevel.dask checks a run's options
+/// on the client, which may have no OpenCL, before any frame is sent out).
+template <class... Option>
+void define_check_params(py::module_& m, std::tuple<Option...>*) {
+    const auto args = std::tuple_cat(std::make_tuple(py::arg("particle_radius"), py::kw_only()), mesh_option_keywords());
+    std::apply([&](auto... a) {
+        m.def("_check_params", [](float particle_radius, Option... option) {
+            make_params(particle_radius, ReconstructOptions{std::move(option)..., std::nullopt, false});
+        }, a...);
+    }, args);
+}
+
 /// A table default as Python writes it: 'adaptive', 4.0, None, False.
 std::string python_text(const trilevel::ParamValue& v) {
     if (std::holds_alternative<std::monostate>(v)) return "None";
@@ -481,6 +519,7 @@ order (index: 0 for the first push), or (index, None, None, message) for a frame
 next frames go on). finish() waits for every frame; no push after it.)";
     py::class_<PyFramePipeline> pipeline(m, "FramePipeline", pipeline_doc.c_str());
     define_pipeline_init(pipeline, static_cast<MeshOptionTypes*>(nullptr));
+    define_check_params(m, static_cast<MeshOptionTypes*>(nullptr));
     pipeline.def("push", &PyFramePipeline::push, py::arg("positions"),
              "Hands the next frame's (n, 3) positions over (copied); returns the frames finished so far.")
         .def("finish", &PyFramePipeline::finish, "Waits for every frame; returns the frames not yet returned.");
@@ -512,8 +551,9 @@ next frames go on). finish() waits for every frame; no push after it.)";
     m.def("default_curvature_threshold", &trilevel::default_curvature_threshold,
           "The calibrated curvature threshold used when curvature_threshold is 0.");
 
-    m.def("read_particles", [](const std::string& path, std::optional<std::vector<std::string>> attributes,
+    m.def("read_particles", [](const std::filesystem::path& file, std::optional<std::vector<std::string>> attributes,
                                bool drop_invalid) -> py::object {
+        const std::string path = file.string();
         trilevel::ReadOptions options;
         if (attributes) options.attributes = *attributes;
         options.drop_invalid = drop_invalid;
@@ -540,14 +580,16 @@ attributes: names of per-particle attributes to read as well (VTK point data, VT
 drop_invalid: drop particles with a NaN/Inf coordinate (and their attributes) with a
     RuntimeWarning giving their number, instead of raising trilevel.Error.)");
 
-    m.def("write_particles", [](const std::string& path, const Array<float>& positions) {
+    m.def("write_particles", [](const std::filesystem::path& file, const Array<float>& positions) {
+        const std::string path = file.string();
         trilevel::ParticleSet set;
         set.positions.assign(positions.data(), positions.data() + 3 * rows_of_three(positions, "positions"));
         py::gil_scoped_release nogil;
         trilevel::write_particles(path, set);
     }, py::arg("path"), py::arg("positions"), "Writes particles by extension: .xyz, .ply, .vtk (atomically).");
 
-    m.def("read_mesh", [](const std::string& path, bool return_normals, bool return_attributes) {
+    m.def("read_mesh", [](const std::filesystem::path& file, bool return_normals, bool return_attributes) {
+        const std::string path = file.string();
         trilevel::Mesh mesh;
         {
             py::gil_scoped_release nogil;
@@ -566,13 +608,30 @@ return_normals: also return the per-vertex normals ((m, 3) float32; None when th
 return_attributes: also return the vertex attributes ({name: (m,) or (m, 3) float32}; PLY: every
     vertex property but x y z, nx ny nz, level and colours, `a_x a_y a_z` as one vector `a`).)");
 
-    m.def("write_mesh", [](const std::string& path, const Array<float>& vertices, const Array<std::uint32_t>& triangles,
-                           const std::optional<Array<std::uint8_t>>& vertex_level, bool color_levels,
+    m.def("write_mesh", [](const std::filesystem::path& file, const Array<float>& vertices, const py::object& triangles,
+                           const std::optional<py::object>& vertex_level, bool color_levels,
                            const std::optional<Array<float>>& normals, const std::optional<py::dict>& attributes) {
+        const std::string path = file.string();
         trilevel::Mesh mesh;
         mesh.positions.assign(vertices.data(), vertices.data() + 3 * rows_of_three(vertices, "vertices"));
-        mesh.triangles.assign(triangles.data(), triangles.data() + 3 * rows_of_three(triangles, "triangles"));
-        if (vertex_level) mesh.vertex_level.assign(vertex_level->data(), vertex_level->data() + vertex_level->size());
+        const Array<std::int64_t> tri = whole_numbers(triangles, "triangles");
+        const std::size_t k = rows_of_three(tri, "triangles");
+        mesh.triangles.resize(3 * k);
+        for (std::size_t i = 0; i < 3 * k; ++i) {
+            if (tri.data()[i] < 0 || tri.data()[i] > std::int64_t(UINT32_MAX))
+                throw trilevel::Error("triangles must hold vertex indices from 0, got " + std::to_string(tri.data()[i]) +
+                                      " in triangle " + std::to_string(i / 3));
+            mesh.triangles[i] = std::uint32_t(tri.data()[i]);
+        }
+        if (vertex_level) {
+            const Array<std::int64_t> level = whole_numbers(*vertex_level, "vertex_level");
+            for (py::ssize_t i = 0; i < level.size(); ++i) {
+                if (level.data()[i] != 2 && level.data()[i] != 3)
+                    throw trilevel::Error("vertex_level must be 2 or 3 per vertex, got " + std::to_string(level.data()[i]) +
+                                          " at vertex " + std::to_string(i));
+                mesh.vertex_level.push_back(std::uint8_t(level.data()[i]));
+            }
+        }
         if (normals) mesh.normals.assign(normals->data(), normals->data() + 3 * rows_of_three(*normals, "normals"));
         if (attributes) mesh.attributes = to_attributes(*attributes, mesh.vertex_count(), "vertex");
         trilevel::MeshWriteOptions options;

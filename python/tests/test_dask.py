@@ -108,6 +108,31 @@ class FindFramesTest(unittest.TestCase):
                 trilevel.dask.reconstruct_frames(os.path.join(tmp, "f_{}.xyz"), os.path.join(tmp, "m_{}.ply"), R,
                                                  level_hysteresis=0.2)
 
+    def test_bad_runs_are_refused_before_any_work(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            frames = os.path.join(tmp, "f_{}.ply")
+            for i in (1, 2):
+                trilevel.write_particles(frames.replace("{}", num(i)), trilevel.generate_scene("sphere", R))
+            before = read(frames.replace("{}", num(1)))
+            # Option values as reconstruct checks them, on this process: no cluster is started.
+            with self.assertRaisesRegex(trilevel.Error, r"kernel radius must lie in \[1, 16\]"):
+                trilevel.dask.reconstruct_frames(frames, os.path.join(tmp, "m_{}.ply"), R, kernel_radius=100.0)
+            with self.assertRaisesRegex(trilevel.Error, "cell size 3 must be 4/n radii"):
+                trilevel.dask.reconstruct_frames(frames, os.path.join(tmp, "m_{}.ply"), R, mode="uniform", cell=3.0)
+            # Outputs that would overwrite a frame's input, or the mesh.
+            with self.assertRaisesRegex(ValueError, f"frame {num(1)}: the mesh .* would overwrite the input"):
+                trilevel.dask.reconstruct_frames(frames, frames, R)
+            with self.assertRaisesRegex(ValueError, f"frame {num(1)}: the stats .* would overwrite the mesh"):
+                trilevel.dask.plan_frames(frames, os.path.join(tmp, "m_{}.ply"), os.path.join(tmp, "m_{}.ply"))
+            job = trilevel.dask.FrameJob(num(1), frames.replace("{}", num(1)), frames.replace("{}", num(1)))
+            with self.assertRaisesRegex(ValueError, "would overwrite the input"):
+                trilevel.dask.reconstruct_frame(job, R)
+            # A lone name is not a sequence of its letters.
+            with self.assertRaisesRegex(TypeError, "attributes must be a sequence of names"):
+                trilevel.dask.reconstruct_frames(frames, os.path.join(tmp, "m_{}.ply"), R, attributes="velocity")
+            self.assertEqual(read(frames.replace("{}", num(1))), before)
+            self.assertEqual(sorted(os.listdir(tmp)), [f"f_{num(1)}.ply", f"f_{num(2)}.ply"])
+
 
 class DaskTest(unittest.TestCase):
     @classmethod

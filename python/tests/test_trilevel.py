@@ -8,6 +8,7 @@ TRILEVEL_SHARED_DIR is ../shared beside this checkout.
 """
 import json
 import os
+import pathlib
 import shutil
 import subprocess
 import tempfile
@@ -303,8 +304,41 @@ class ErrorTest(unittest.TestCase):
                               np.zeros((3, 3), np.float32), np.array([[0, 1, 9]], np.uint32))
             self.assertEqual(os.listdir(tmp), [])  # no partial file left behind
 
+    def test_write_mesh_refuses_values_a_cast_would_change(self):
+        v = np.zeros((3, 3), np.float32)
+        with tempfile.TemporaryDirectory() as tmp:
+            out = os.path.join(tmp, "m.ply")
+            self.assert_error("triangles must be an integer array, got dtype float64",
+                              trilevel.write_mesh, out, v, np.array([[0.0, 1.9, 2.0]]))
+            self.assert_error("triangles must hold vertex indices from 0, got -4294967296 in triangle 0",
+                              trilevel.write_mesh, out, v, np.array([[0, 1, 2]]) - 2**32)
+            self.assert_error("vertex_level must be 2 or 3 per vertex, got 300 at vertex 0",
+                              trilevel.write_mesh, out, v, [[0, 1, 2]], vertex_level=np.full(3, 300))
+            self.assert_error("vertex_level must be an integer array", trilevel.write_mesh, out, v, [[0, 1, 2]],
+                              vertex_level=np.full(3, 2.7))
+            self.assertEqual(os.listdir(tmp), [])
+            trilevel.write_mesh(out, v, [[0, 1, 2]], vertex_level=[2, 3, 3])  # lists of whole numbers are fine
+            self.assertEqual(trilevel.read_mesh(out)[1].tolist(), [[0, 1, 2]])
+
+    def test_frame_pipeline_checks_its_options_at_once(self):
+        self.assert_error("kernel radius must lie in [1, 16]", trilevel.FramePipeline, self.rec, R, kernel_radius=100.0)
+        self.assert_error("cell size 3 must be 4/n radii", trilevel.FramePipeline, self.rec, R, mode="uniform", cell=3.0)
+        self.assert_error("particle radius", trilevel.FramePipeline, self.rec, 0.0)
+
 
 class IoTest(unittest.TestCase):
+    def test_paths_may_be_path_objects(self):
+        p = trilevel.generate_scene("sphere", R)
+        v, t, _ = trilevel.reconstruct(p, R)
+        with tempfile.TemporaryDirectory() as tmp:
+            base = pathlib.Path(tmp)
+            trilevel.write_particles(base / "p.ply", p)
+            assert_bit_equal(self, trilevel.read_particles(base / "p.ply"), p)
+            trilevel.write_mesh(base / "m.ply", v, t)
+            rv, rt = trilevel.read_mesh(base / "m.ply")
+            assert_bit_equal(self, rv, v)
+            assert_bit_equal(self, rt, t)
+
     def test_particles_and_meshes_round_trip(self):
         p = trilevel.generate_scene("dam-break", R)
         v, t, _, level, _ = trilevel.reconstruct(p, R, return_levels=True)

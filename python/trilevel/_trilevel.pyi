@@ -1,6 +1,7 @@
 # Type stubs of the compiled module (python/trilevel_module.cpp), for editors and type checkers.
 # python/tests/test_stubs.py checks them against the module: the same public names, and for every
 # function and method the same parameters, keyword-only markers and defaults.
+from os import PathLike
 from typing import Any, Literal, Mapping, Sequence, overload
 
 import numpy as np
@@ -148,20 +149,20 @@ class FramePipeline:
 def devices() -> list[dict[str, Any]]: ...
 def default_curvature_threshold() -> float: ...
 @overload
-def read_particles(path: str, attributes: None = None, *, drop_invalid: bool = False) -> _Vertices: ...
+def read_particles(path: str | PathLike[str], attributes: None = None, *, drop_invalid: bool = False) -> _Vertices: ...
 @overload
 def read_particles(
-    path: str, attributes: Sequence[str], *, drop_invalid: bool = False
+    path: str | PathLike[str], attributes: Sequence[str], *, drop_invalid: bool = False
 ) -> tuple[_Vertices, dict[str, NDArray[np.float32]]]: ...
-def write_particles(path: str, positions: ArrayLike) -> None: ...
+def write_particles(path: str | PathLike[str], positions: ArrayLike) -> None: ...
 @overload
 def read_mesh(
-    path: str, *, return_normals: Literal[False] = False, return_attributes: Literal[False] = False
+    path: str | PathLike[str], *, return_normals: Literal[False] = False, return_attributes: Literal[False] = False
 ) -> tuple[_Vertices, _Triangles]: ...
 @overload
-def read_mesh(path: str, *, return_normals: bool = False, return_attributes: bool = False) -> tuple[Any, ...]: ...
+def read_mesh(path: str | PathLike[str], *, return_normals: bool = False, return_attributes: bool = False) -> tuple[Any, ...]: ...
 def write_mesh(
-    path: str,
+    path: str | PathLike[str],
     vertices: ArrayLike,
     triangles: ArrayLike,
     *,

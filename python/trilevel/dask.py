@@ -80,6 +80,34 @@ class FrameResult:
     frames_on_reconstructor: int = 0  # frames that Reconstructor had done, this one included
 
 
+def _same_file(a: str, b: str) -> bool:
+    """Whether paths `a` and `b` name one file (the same path, or links to one existing file)."""
+    if not a or not b:
+        return False
+    try:
+        if os.path.exists(a) and os.path.exists(b):
+            return os.path.samefile(a, b)
+    except OSError:
+        pass
+    return os.path.realpath(a) == os.path.realpath(b)
+
+
+def _check_job(job: "FrameJob") -> None:
+    """ValueError for a frame whose outputs would overwrite its input, or each other."""
+    if _same_file(job.output, job.input):
+        raise ValueError(f"frame {job.number}: the mesh {job.output} would overwrite the input")
+    if _same_file(job.stats, job.input) or _same_file(job.stats, job.output):
+        raise ValueError(f"frame {job.number}: the stats {job.stats} would overwrite the "
+                         f"{'input' if _same_file(job.stats, job.input) else 'mesh'}")
+
+
+def _names(attributes: Sequence[str]) -> list[str]:
+    """The attribute names as a list; a lone string is a mistake for [name], not its letters."""
+    if isinstance(attributes, (str, bytes)):
+        raise TypeError(f"attributes must be a sequence of names, got the string {attributes!r} (use [{attributes!r}])")
+    return list(attributes)
+
+
 def _frame_path(pattern: str, number: str) -> str:
     return pattern.replace("{}", number, 1) if pattern else ""
 
@@ -114,6 +142,8 @@ def plan_frames(input_pattern: str, output_pattern: str, stats_pattern: str = ""
     if not jobs:
         raise ValueError(f"{input_pattern}: no frame in [{'first' if start is None else start}, "
                          f"{'last' if end is None else end}]; the files hold frames {numbers[0]} to {numbers[-1]}")
+    for job in jobs:
+        _check_job(job)
     return jobs
 
 
@@ -159,6 +189,8 @@ def reconstruct_frame(job: FrameJob, particle_radius: float, options: Mapping[st
     if unknown:
         raise ValueError(f"unknown reconstruct options {unknown}; frames take {list(_OPTIONS)} "
                          "(each frame is independent: no level_hysteresis)")
+    attributes = _names(attributes)
+    _check_job(job)
     worker = f"{socket.gethostname()}:{os.getpid()}"
     if skip_existing and job.outputs_exist():  # e.g. a rerun of a task whose worker died after writing
         return FrameResult(job.number, job.output, "skipped", worker=worker)
@@ -230,12 +262,16 @@ def reconstruct_frames(input_pattern: str, output_pattern: str, particle_radius:
         frame is reconstructed on its own.
 
     Returns a FrameResult per frame in the range, in frame order. Raises before any work for a bad
-    pattern, range or option; a frame that fails is reported in its result, not raised.
+    pattern, range or option (trilevel.Error for an option value, as reconstruct would), or outputs
+    that would overwrite a frame's input or each other; a frame that fails is reported in its
+    result, not raised.
     """
     unknown = sorted(set(options) - set(_OPTIONS))
     if unknown:
         raise ValueError(f"unknown reconstruct options {unknown}; frames take {list(_OPTIONS)} "
                          "(each frame is independent: no level_hysteresis)")
+    attributes = _names(attributes)
+    _trilevel._check_params(particle_radius, **options)  # no device needed: the client may have none
     jobs = plan_frames(input_pattern, output_pattern, stats_pattern, start, end)
     results: dict[str, FrameResult] = {}
     todo = []
