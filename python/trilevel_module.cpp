@@ -182,7 +182,15 @@ std::vector<trilevel::Attribute> to_attributes(const py::dict& dict, std::size_t
     for (const auto& [key, value] : dict) {
         trilevel::Attribute a;
         a.name = py::cast<std::string>(py::str(key));
-        const auto values = py::cast<Array<float>>(value);
+        Array<float> values;
+        try {  // numpy's own message names no attribute
+            values = py::cast<Array<float>>(value);
+        } catch (const py::error_already_set& e) {
+            throw trilevel::Error("attribute '" + a.name + "' must be an array of numbers: " + e.what());
+        } catch (const py::cast_error&) {
+            throw trilevel::Error("attribute '" + a.name + "' must be an array of numbers, got " +
+                                  py::cast<std::string>(py::str(py::type::of(value).attr("__name__"))));
+        }
         const bool scalar = values.ndim() == 1 && std::size_t(values.shape(0)) == n;
         const bool vector = values.ndim() == 2 && std::size_t(values.shape(0)) == n && values.shape(1) == 3;
         if (!scalar && !vector)

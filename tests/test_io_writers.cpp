@@ -193,6 +193,17 @@ TEST_CASE("writes are atomic: clear errors, no partial or temporary files", "[io
     one.positions = {1, 2, 3};
     trilevel::write_particles(tmp.file("p.xyz"), one);
     REQUIRE(std::filesystem::file_size(tmp.path / "p.xyz") == 12);
+
+    // through a symbolic link (relative, in another directory, and a link to that link): the file
+    // it names is replaced and the links stay links
+    std::filesystem::create_directories(tmp.path / "frames");
+    std::filesystem::create_symlink("../p.xyz", tmp.path / "frames" / "latest.xyz");
+    std::filesystem::create_symlink("frames/latest.xyz", tmp.path / "again.xyz");
+    trilevel::write_particles(tmp.file("again.xyz"), p);
+    CHECK(std::filesystem::is_symlink(tmp.path / "again.xyz"));
+    CHECK(std::filesystem::is_symlink(tmp.path / "frames" / "latest.xyz"));
+    CHECK(std::filesystem::file_size(tmp.path / "p.xyz") == p.positions.size() * sizeof(float));
+    CHECK(names_in(tmp.path / "frames") == std::vector<std::string>{"latest.xyz"});  // no temporary left there
 }
 
 TEST_CASE("VTK XML meshes (.vtp, .vtu) round-trip points, levels, normals and attributes through the VTU reader", "[io]") {

@@ -293,6 +293,10 @@ class ErrorTest(unittest.TestCase):
         bad[3] = np.inf
         self.assert_error("particle attribute 'd': particle 3 has a non-finite value",
                           self.rec.reconstruct, self.ok, R, attributes={"d": bad})
+        self.assert_error("attribute 'a' must be an array of numbers: ValueError: could not convert string to float",
+                          self.rec.reconstruct, self.ok, R, attributes={"a": "abc"})
+        self.assert_error("attribute 'o' must be an array of numbers", self.rec.reconstruct, self.ok, R,
+                          attributes={"o": np.array([object()] * n)})
 
     def test_io_errors_name_the_file(self):
         with tempfile.TemporaryDirectory() as tmp:

@@ -240,10 +240,17 @@ void AtomicWriter::publish_temp_name(bool on) {
 }
 
 AtomicWriter::AtomicWriter(const std::string& path) : path_(path) {
-    const fs::path target(path);
+    fs::path target(path);
     if (target.filename().empty()) fail(path, "output path names no file");
-    fs::path dir = target.parent_path();
     std::error_code ec;
+    // Through a symbolic link to the file it names (renaming over the link would replace the link).
+    for (int hops = 0; fs::is_symlink(target, ec) && hops < 40; ++hops) {
+        const fs::path next = fs::read_symlink(target, ec);
+        if (ec) break;
+        target = next.is_absolute() ? next : target.parent_path() / next;
+    }
+    target_ = target.string();
+    fs::path dir = target.parent_path();
     if (!dir.empty() && !fs::is_directory(dir, ec))
         fail(path, "output directory '" + dir.string() + "' does not exist");
     if (fs::is_directory(target, ec)) fail(path, "output path is a directory");
@@ -319,7 +326,7 @@ void AtomicWriter::commit() {
     file_ = nullptr;
     if (close_bad) fail(path_, std::string("write failed: ") + std::strerror(errno));
     std::error_code ec;
-    fs::rename(temp_, path_, ec);
+    fs::rename(temp_, target_, ec);
     if (ec) fail(path_, "cannot rename temporary file into place: " + ec.message());
     committed_ = true;
     publish_temp_name(false);

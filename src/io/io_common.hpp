@@ -144,7 +144,8 @@ std::string upper(std::string_view s);
 /// mid-write, even by SIGKILL, leaves nothing behind. On commit it is linked as `.NAME.tmp.PID.N`
 /// and renamed over NAME at once. Elsewhere the temporary is that named file from the start; a
 /// SIGKILL may then leave it behind (never under the target's name), and SIGINT/SIGTERM remove it
-/// when the program called remove_temporaries_on_signals().
+/// when the program called remove_temporaries_on_signals(). A NAME that is a symbolic link is
+/// written through: the file it points to is replaced (in that file's directory) and the link kept.
 class AtomicWriter {
 public:
     explicit AtomicWriter(const std::string& path);
@@ -160,7 +161,7 @@ public:
 private:
     void flush();
     void publish_temp_name(bool on);
-    std::string path_, temp_;
+    std::string path_, target_, temp_;  ///< as given (messages), the file replaced, the temporary
     std::FILE* file_ = nullptr;
     bool unnamed_ = false;  // O_TMPFILE: temp_ names nothing until commit() links it
     int slot_ = -1;         // in the signal-cleanup registry
