@@ -11,25 +11,27 @@
 
 namespace trilevel::cli {
 
-bool same_file(const std::string& a, const std::string& b) {
-    if (a.empty() || b.empty()) return false;
+namespace {
+
+/// The file `path` writes to: absolute, "." and ".." and symbolic links resolved (as far as they
+/// exist; writes go through links, AtomicWriter). A hard link is another file for a write: the
+/// rename replaces that name only. "" stays "".
+std::filesystem::path written_file(const std::string& path) {
+    if (path.empty()) return {};
     std::error_code ec;
-    if (std::filesystem::exists(a, ec) && std::filesystem::exists(b, ec)) {
-        const bool same = std::filesystem::equivalent(a, b, ec);
-        if (!ec) return same;
-    }
-    const auto ca = std::filesystem::weakly_canonical(a, ec);
-    if (ec) return a == b;
-    const auto cb = std::filesystem::weakly_canonical(b, ec);
-    return ec ? a == b : ca == cb;
+    const std::filesystem::path p = std::filesystem::weakly_canonical(path, ec);
+    return ec ? std::filesystem::path(path) : p;
 }
+
+}  // namespace
 
 void require_distinct_outputs(const std::string& input, const std::string& output, const std::string& stats,
                               const std::string& what) {
     const std::string frame = what.empty() ? "" : what + ": ";
-    if (same_file(input, output)) throw UsageError(frame + "the mesh " + output + " would overwrite the input");
-    if (same_file(input, stats)) throw UsageError(frame + "the statistics " + stats + " would overwrite the input");
-    if (same_file(output, stats)) throw UsageError(frame + "the statistics " + stats + " would overwrite the mesh");
+    const auto in = written_file(input), mesh = written_file(output), st = written_file(stats);
+    if (mesh == in) throw UsageError(frame + "the mesh " + output + " would overwrite the input");
+    if (!st.empty() && st == in) throw UsageError(frame + "the statistics " + stats + " would overwrite the input");
+    if (!st.empty() && st == mesh) throw UsageError(frame + "the statistics " + stats + " would overwrite the mesh");
 }
 
 bool is_sequence_pattern(const std::string& pattern) { return pattern.find("{}") != std::string::npos; }

@@ -26,9 +26,6 @@ struct UsageError : Error {
 /// `s` with its line breaks turned into spaces: every error is one line on stderr.
 std::string one_line(std::string s);
 
-/// Whether paths `a` and `b` name one file: the same path, or links to one existing file.
-bool same_file(const std::string& a, const std::string& b);
-
 /// UsageError when a frame's mesh or statistics would overwrite its input (or the statistics the
 /// mesh): `what` names the frame in the message ("" for a single file).
 void require_distinct_outputs(const std::string& input, const std::string& output, const std::string& stats,

@@ -98,6 +98,13 @@ inline long hash_insert(volatile __global ulong* keys, ulong capacity, ulong key
 
 // The counters a table keeps through its inserts: stats[0] = overflow flag, stats[1] = keys newly
 // inserted (the host grows the table when it passes its load limit: 1/2, fine points 0.85).
+// The counters' side of an insert that returned slot `s` (-1: full) and `created`; the flag also
+// goes up when the keys pass `overflow_at`.
+inline long count_insert(long s, int created, volatile __global int* stats, ulong overflow_at) {
+    if (created && (ulong)atomic_inc(&stats[1]) >= overflow_at) atomic_or(&stats[0], 1);
+    if (s < 0) atomic_or(&stats[0], 1);
+    return s;
+}
 
 // hash_insert with the counters. Past half the table's slots it raises the overflow flag too: the
 // host grows a table that holds more than that anyway (needs_growth), and the keys still to come
@@ -107,9 +114,7 @@ inline long hash_insert(volatile __global ulong* keys, ulong capacity, ulong key
 inline long hash_insert_counted(volatile __global ulong* keys, ulong capacity, ulong key, volatile __global int* stats) {
     int created;
     const long s = hash_insert(keys, capacity, key, &created, stats);
-    if (created && (ulong)atomic_inc(&stats[1]) >= capacity / 2) atomic_or(&stats[0], 1);
-    if (s < 0) atomic_or(&stats[0], 1);
-    return s;
+    return count_insert(s, created, stats, capacity / 2);
 }
 
 // The fine-point table stores lattice point p as fine_key(p): its coordinates packed with the
@@ -178,9 +183,7 @@ inline long fine_insert_counted(volatile __global fine_key_t* keys, ulong capaci
                                 volatile __global int* stats) {
     int created;
     const long s = fine_insert(keys, capacity, p, shift, &created);
-    if (created) atomic_inc(&stats[1]);
-    if (s < 0) atomic_or(&stats[0], 1);
-    return s;
+    return count_insert(s, created, stats, ULONG_MAX);
 }
 
 // Moves every point (and its value) of an old fine-point table into a larger one.

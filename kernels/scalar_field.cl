@@ -213,14 +213,15 @@ inline uint gather_columns(int3 blo, int3 bhi, __global const float* sorted, __g
     if (n > MAX_CANDIDATES) return MAX_CANDIDATES + 1;
     // CPU devices: the first work-item copies it all (the others would walk every bin for about
     // one particle each); other devices: every work-item a share of each bin.
-    const uint first = SERIAL_GATHER ? (lid == 0 ? 0 : UINT_MAX) : lid, stride = SERIAL_GATHER ? 1 : lsize;
-    for (uint b = 0, to = 0; b < (uint)nbins && first != UINT_MAX; to += bin_count[b++])
-        for (uint k = first; k < bin_count[b]; k += stride) {
-            const float3 p = vload3(bin_start[b] + k, sorted);
-            columns[to + k] = p.x;
-            columns[CANDIDATE_COLUMN + to + k] = p.y;
-            columns[2 * CANDIDATE_COLUMN + to + k] = p.z;
-        }
+    const uint first = SERIAL_GATHER ? 0 : lid, stride = SERIAL_GATHER ? 1 : lsize;
+    if (!SERIAL_GATHER || lid == 0)
+        for (uint b = 0, to = 0; b < (uint)nbins; to += bin_count[b++])
+            for (uint k = first; k < bin_count[b]; k += stride) {
+                const float3 p = vload3(bin_start[b] + k, sorted);
+                columns[to + k] = p.x;
+                columns[CANDIDATE_COLUMN + to + k] = p.y;
+                columns[2 * CANDIDATE_COLUMN + to + k] = p.z;
+            }
     for (uint k = n + lid; k < WHOLE_LANES(n); k += lsize) {
         columns[k] = 1e18f;
         columns[CANDIDATE_COLUMN + k] = 1e18f;

@@ -62,7 +62,9 @@ void require_positive(float v, const char* name, const char* why) {
         throw Error(std::string(name) + " must be finite and > 0 (" + why + "), got " + std::to_string(v));
 }
 
-void validate(const Params& p) {
+}  // namespace
+
+void check_params(const Params& p) {
     require_positive(p.particle_radius, "particle radius", "half the particle spacing, world units");
     require_positive(p.kernel_radius, "kernel radius", "in particle radii");
     if (p.kernel_radius < 1.0f || p.kernel_radius > 16.0f)
@@ -92,10 +94,6 @@ void validate(const Params& p) {
         throw Error("memory limit of " + std::to_string(p.memory_limit_bytes) +
                     " bytes cannot hold even the smallest buffers; give at least 4 KiB (0: the device's and host's memory)");
 }
-
-}  // namespace
-
-void check_params(const Params& params) { validate(params); }
 
 namespace {
 
@@ -408,7 +406,7 @@ namespace {
 
 /// The checks of a frame before any work: parameters, particle count, attributes.
 void validate_frame(const Params& p, std::size_t count, const std::vector<ParticleAttribute>& attributes) {
-    validate(p);
+    check_params(p);
     if (count == 0) throw Error("no particles to reconstruct (the input is empty)");
     if (count > std::numeric_limits<std::uint32_t>::max() / 2) throw Error("too many particles for one frame");
     validate_attributes(attributes, count);

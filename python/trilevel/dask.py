@@ -80,25 +80,16 @@ class FrameResult:
     frames_on_reconstructor: int = 0  # frames that Reconstructor had done, this one included
 
 
-def _same_file(a: str, b: str) -> bool:
-    """Whether paths `a` and `b` name one file (the same path, or links to one existing file)."""
-    if not a or not b:
-        return False
-    try:
-        if os.path.exists(a) and os.path.exists(b):
-            return os.path.samefile(a, b)
-    except OSError:
-        pass
-    return os.path.realpath(a) == os.path.realpath(b)
-
-
 def _check_job(job: "FrameJob") -> None:
-    """ValueError for a frame whose outputs would overwrite its input, or each other."""
-    if _same_file(job.output, job.input):
+    """ValueError for a frame whose outputs would overwrite its input, or each other: the files
+    written, links resolved (writes go through them), as the CLI checks."""
+    written = {name: os.path.realpath(path) for name, path in
+               (("input", job.input), ("mesh", job.output), ("stats", job.stats)) if path}
+    if written["mesh"] == written["input"]:
         raise ValueError(f"frame {job.number}: the mesh {job.output} would overwrite the input")
-    if _same_file(job.stats, job.input) or _same_file(job.stats, job.output):
-        raise ValueError(f"frame {job.number}: the stats {job.stats} would overwrite the "
-                         f"{'input' if _same_file(job.stats, job.input) else 'mesh'}")
+    for other in ("input", "mesh"):
+        if written.get("stats") == written[other]:
+            raise ValueError(f"frame {job.number}: the stats {job.stats} would overwrite the {other}")
 
 
 def _names(attributes: Sequence[str]) -> list[str]:

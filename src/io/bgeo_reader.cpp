@@ -213,35 +213,37 @@ struct PointRecords {
     std::size_t count;   ///< records
     std::size_t record;  ///< bytes a record (16 at least: P is x y z w)
 
+    /// Coordinate k (0 x, 1 y, 2 z) of point i.
+    float coordinate(std::size_t i, std::size_t k) const { return load<float>(base + i * record + 4 * k, true); }
+
     /// Index 3 i + k of the first coordinate that is NaN or infinite, SIZE_MAX when none is.
     std::size_t first_non_finite() const {
         for (std::size_t i = 0; i < count; ++i)
             for (std::size_t k = 0; k < 3; ++k)
-                if (!std::isfinite(load<float>(base + i * record + 4 * k, true))) return 3 * i + k;
+                if (!std::isfinite(coordinate(i, k))) return 3 * i + k;
         return SIZE_MAX;
     }
-    /// x y z of every point to `xyz` (3 count floats).
+    /// x y z of every point to `xyz` (3 count floats). `xyz` may be the buffer that holds the
+    /// records, at or before `base`: point i's floats 3 i .. 3 i + 2 (bytes 12 i .. 12 i + 11) lie
+    /// before its record (record >= 16) and after every record read before it, so each record is
+    /// read before anything overwrites it.
     void copy_positions(float* xyz) const {
-        for (std::size_t i = 0; i < count; ++i)
-            for (std::size_t k = 0; k < 3; ++k) xyz[3 * i + k] = load<float>(base + i * record + 4 * k, true);
+        for (std::size_t i = 0; i < count; ++i) {
+            const float x = coordinate(i, 0), y = coordinate(i, 1), z = coordinate(i, 2);
+            xyz[3 * i] = x;
+            xyz[3 * i + 1] = y;
+            xyz[3 * i + 2] = z;
+        }
     }
 };
 
-/// The positions made from the inflated file that holds them, in its own buffer: point i's x y z
-/// go to floats 3 i .. 3 i + 2, bytes 12 i .. 12 i + 11, which lie before its record (at offset +
-/// i * record, record >= 16) and after every record read before it, so one forward pass reads
-/// each record before anything overwrites it. A x512 frame (17.7 M points) then holds its 270 MiB
-/// of inflated bytes, then 202 MiB of positions, never both (and skips a 202 MiB allocation);
-/// the records' other bytes, past the positions, go back to the system (release_unused_capacity).
-std::vector<float> positions_in_place(std::vector<float> inflated, std::size_t offset, const PointRecords& points) {
-    const char* bytes = reinterpret_cast<const char*>(inflated.data());
-    for (std::size_t i = 0; i < points.count; ++i) {
-        const char* p = bytes + offset + i * points.record;
-        const float x = load<float>(p, true), y = load<float>(p + 4, true), z = load<float>(p + 8, true);
-        inflated[3 * i] = x;
-        inflated[3 * i + 1] = y;
-        inflated[3 * i + 2] = z;
-    }
+/// The positions made from the inflated file that holds `points`, in its own buffer (moving a
+/// vector keeps its storage, so `points` still lies in `inflated`). A x512 frame (17.7 M points)
+/// then holds its 270 MiB of inflated bytes, then 202 MiB of positions, never both (and skips a
+/// 202 MiB allocation); the records' other bytes, past the positions, go back to the system
+/// (release_unused_capacity).
+std::vector<float> positions_in_place(std::vector<float> inflated, const PointRecords& points) {
+    points.copy_positions(inflated.data());
     inflated.resize(3 * points.count);
     release_unused_capacity(inflated);
     return inflated;
@@ -296,7 +298,7 @@ ParticleSet read_bgeo(const ReadRequest& r) {
     read_attributes(path, points.base, points.count, points.record, table, sink);  // before the records are overwritten
     ParticleSet set;
     if (bytes.inflated_whole()) {
-        set.positions = positions_in_place(bytes.take_whole(), cur.pos, points);
+        set.positions = positions_in_place(bytes.take_whole(), points);
     } else {
         set.positions.resize(3 * points.count);
         points.copy_positions(set.positions.data());
