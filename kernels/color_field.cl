@@ -3,7 +3,7 @@
 // Runs over the binned (sorted) particles; outputs are in sorted order. Gradients are packed xyz
 // triples (3 floats a particle, not a float4): at 17.7 M particles the array is the largest one
 // alive in stages 2 and 4 after the positions.
-// Build options: SURFACE_GRADIENT, SPLASH_NEIGHBOURS, THIN_NEIGHBOURS, SAME_SPOT.
+// Build options: SURFACE_GRADIENT, SPLASH_NEIGHBOURS, THIN_NEIGHBOURS, SHEET_FRACTION, SAME_SPOT.
 // A neighbour closer than SAME_SPOT * R is the same spot, not a neighbour, for the splash and thin
 // counts: particles stacked on one point have no colour-field gradient at all, so without this a
 // pile of them would be neither surface nor splash and vanish from the mesh.
@@ -33,11 +33,13 @@ inline void color_field_global(uint i, __global const float* sorted, float inv_c
     *n_out = neighbours;
 }
 
-inline uchar particle_flags(float3 g, int neighbours, float R) {
+// Thin: few neighbours (a small cluster or a filament), or no gradient and fewer than sheet_limit
+// (a sheet one particle thick: constants::kSheetNeighbourFraction).
+inline uchar particle_flags(float3 g, int neighbours, float R, float sheet_limit) {
     uchar f = 0;
     if (length(g) * R > SURFACE_GRADIENT) f |= FLAG_SURFACE;
     if (neighbours < SPLASH_NEIGHBOURS) f |= FLAG_SPLASH | FLAG_SURFACE;
-    if (neighbours < THIN_NEIGHBOURS) f |= FLAG_THIN;
+    if (neighbours < THIN_NEIGHBOURS || (!(f & FLAG_SURFACE) && (float)neighbours < sheet_limit)) f |= FLAG_THIN;
     return f;
 }
 
@@ -62,7 +64,7 @@ inline uchar particle_flags(float3 g, int neighbours, float R) {
 #define DEFINE_COLOR_BATCHES(N)                                                                                       \
     inline void color_batches##N(uint first_particle, uint n, uint n_first, __global const float* sorted,             \
                                  COLOR_CANDIDATES, __local const uint* bin_first, __local const uint* bin_count,      \
-                                 uint n_cand, float R, float R2, float same2, float grad_norm,                        \
+                                 uint n_cand, float R, float R2, float same2, float grad_norm, float sheet_limit,     \
                                  __global float* gradient, __global uchar* flags) {                                   \
         const int width = N == 16 ? 4 : 3, paired = N == 16;                                                           \
         const uint lid = get_local_id(0), lsize = get_local_size(0);                                                  \
@@ -101,7 +103,7 @@ inline uchar particle_flags(float3 g, int neighbours, float R) {
             for (uint l = 0; l < N && first + l < n; ++l) {                                                            \
                 const float3 g = (float3)(ox[l], oy[l], oz[l]);                                                        \
                 vstore3(g, first_particle + first + l, gradient);                                                      \
-                flags[first_particle + first + l] = particle_flags(g, on[l], R);                                       \
+                flags[first_particle + first + l] = particle_flags(g, on[l], R, sheet_limit);                          \
             }                                                                                                          \
         }                                                                                                              \
     }
@@ -126,6 +128,7 @@ __kernel void color_field(__global const float* sorted, __global const uint* occ
                           __local uint* bin_first, __local uint* bin_slot, __local uint* count) {
     const float R2 = R * R, same2 = R2 * (SAME_SPOT * SAME_SPOT);
     const float grad_norm = -945.0f / (32.0f * M_PI_F * pown(R, 9)) * volume;
+    const float sheet_limit = SHEET_FRACTION * (4.0f * 3.14159265f / 3.0f) * R * R * R / volume;  // sheet_neighbour_limit
     const uint lid = get_local_id(0), lsize = get_local_size(0);
     const uint first_bin = get_group_id(0) * per_group, end = min(first_bin + per_group, occupied_count);
     for (uint ob = first_bin; ob < end;) {
@@ -158,17 +161,18 @@ __kernel void color_field(__global const float* sorted, __global const uint* occ
                 int nb;
                 color_field_global(own.x + k, sorted, inv_cell, bin_keys, bin_capacity, range, R2, grad_norm, &g, &nb);
                 vstore3(g, own.x + k, gradient);
-                flags[own.x + k] = particle_flags(g, nb, R);
+                flags[own.x + k] = particle_flags(g, nb, R, sheet_limit);
             }
             continue;
         }
 #if VECTOR_WIDTH == 16
         if (pair) {
-            color_batches16(own.x, n, own.y, sorted, source, bin_first, bin_slot, n_cand, R, R2, same2, grad_norm, gradient,
-                            flags);
+            color_batches16(own.x, n, own.y, sorted, source, bin_first, bin_slot, n_cand, R, R2, same2, grad_norm, sheet_limit,
+                            gradient, flags);
             continue;
         }
 #endif
-        color_batches8(own.x, n, n, sorted, source, bin_first, bin_slot, n_cand, R, R2, same2, grad_norm, gradient, flags);
+        color_batches8(own.x, n, n, sorted, source, bin_first, bin_slot, n_cand, R, R2, same2, grad_norm, sheet_limit, gradient,
+                       flags);
     }
 }

@@ -20,6 +20,22 @@ constexpr int kSplashNeighbours = 3;
 /// the dam-break frames: 5 lost a small cluster, 8 promoted more cells for no accuracy (docs/calibration.md).
 constexpr int kThinNeighbours = 6;
 
+/// Sheet particle: no surface gradient (its neighbours balance on both sides) and fewer neighbours
+/// than this fraction of a particle inside the fluid has, (4 pi / 3) R^3 / (2r)^3 (33.5 at R = 4r).
+/// A sheet one particle thick has about pi (R / 2r)^2 (12.6), and no particle of a surface: its
+/// layer of 2r samples lies about r off the sheet's middle on both sides, so the level-2 lattice
+/// sees the sheet as surface everywhere and tears it into islands (a generated 40 x 1 x 40 sheet:
+/// 45 components, 31% of the volume lost). Sheet particles are thin: level 3 around them. 0.4
+/// (13.4) takes every particle of such a sheet and no particle of a flat face or of the dam-break
+/// frames' bulk (docs/calibration.md, "Sheets one particle thick").
+constexpr float kSheetNeighbourFraction = 0.4f;
+
+/// The neighbour count below which a particle without surface gradient is a sheet particle, for
+/// support R and particle volume (2r)^3, in float as the colour-field kernel computes it.
+inline float sheet_neighbour_limit(float R, float volume) {
+    return kSheetNeighbourFraction * (4.0f * 3.14159265f / 3.0f) * R * R * R / volume;
+}
+
 /// Neighbours closer than kSameSpot * R count as the same spot, not as neighbours, in the splash and
 /// thin tests. Particles stacked on one point have a zero colour-field gradient, so a pile of them
 /// would otherwise be neither surface nor splash and vanish from the mesh; 1/4096 R (0.001 r at

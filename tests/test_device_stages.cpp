@@ -26,8 +26,8 @@ OpenCLRuntime& runtime() {
     return rt;
 }
 
-/// A jittered lattice block of spacing 2r plus a ball and a few isolated particles, all at
-/// positive coordinates (the device stages take positions relative to the lattice origin).
+/// A jittered lattice block of spacing 2r plus a ball, a sheet one particle thick and a few isolated
+/// particles, all at positive coordinates (the device stages take positions relative to the lattice origin).
 std::vector<glm::vec3> test_particles(float r, std::uint32_t seed) {
     std::mt19937 rng(seed);
     std::uniform_real_distribution<float> jitter(-0.04f * r, 0.04f * r);
@@ -44,6 +44,10 @@ std::vector<glm::vec3> test_particles(float r, std::uint32_t seed) {
         for (int j = -4; j <= 4; ++j)
             for (int i = -4; i <= 4; ++i)
                 if (i * i + j * j + k * k <= 16) x.push_back(centre + 2.0f * r * glm::vec3(i, j, k));
+    // A sheet one particle thick: no surface gradient inside it, yet thin (sheet_neighbour_limit).
+    const glm::vec3 sheet = base + glm::vec3(30.37f * r, 60.21f * r, 30.13f * r);
+    for (int k = 0; k < 10; ++k)
+        for (int i = 0; i < 10; ++i) x.push_back(sheet + 2.0f * r * glm::vec3(i, 0, k) + glm::vec3(jitter(rng), 0, jitter(rng)));
     x.push_back(base + glm::vec3(60 * r, 5 * r, 5 * r));  // isolated splash particles
     x.push_back(base + glm::vec3(70 * r, 40 * r, 5 * r));
     x.push_back(base + glm::vec3(71.5f * r, 40 * r, 5 * r));
@@ -263,7 +267,7 @@ TEST_CASE("colour field, surface and splash particles match the C++ reference", 
         const glm::vec3 g = grad[i];
         REQUIRE(glm::length(g - ref.gradient[i]) * R <= 1e-4f + 1e-4f * glm::length(ref.gradient[i]) * R);
         REQUIRE(bool(flags[i] & contract::kFlagSplash) == bool(ref.splash[i]));
-        REQUIRE(bool(flags[i] & contract::kFlagThin) == (ref.neighbours[i] < constants::kThinNeighbours));
+        REQUIRE(bool(flags[i] & contract::kFlagThin) == bool(ref.thin[i]));
         device_surface += (flags[i] & contract::kFlagSurface) != 0;
         // Only a gradient within float noise of the threshold may classify differently.
         if (bool(flags[i] & contract::kFlagSurface) != bool(ref.surface[i]))
@@ -271,6 +275,15 @@ TEST_CASE("colour field, surface and splash particles match the C++ reference", 
     }
     CHECK(c.surface == device_surface);
     CHECK(c.splash == 3);
+    // The sheet's inner particles are thin without a surface gradient; no particle of the block is.
+    std::size_t sheet_inner = 0, block_thin = 0;
+    for (std::size_t i = 0; i < x.size(); ++i) {
+        const bool in_sheet = i >= 960 + 257 && i < 960 + 257 + 100;  // after the block and the ball
+        sheet_inner += in_sheet && (flags[i] & contract::kFlagThin) && !(flags[i] & contract::kFlagSurface);
+        block_thin += i < 960 && (flags[i] & contract::kFlagThin);
+    }
+    CHECK(sheet_inner >= 36);  // the 8 x 8 inside at least, whose gradients cancel
+    CHECK(block_thin == 0);
 }
 
 TEST_CASE("colour field is bit-identical with bins paired in 16-wide vectors and alone in 8-wide ones", "[device][color_field][determinism]") {

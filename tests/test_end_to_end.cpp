@@ -4,6 +4,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <numbers>
+#include <random>
 
 #include <glm/glm.hpp>
 #include <tbb/task_arena.h>
@@ -283,6 +284,35 @@ TEST_CASE("levels end to end: a 6r droplet is level 3, a resting pool level 2, i
     CHECK(st.splash_particles == 2);
     CHECK(st.surface_cells_level2 == 0);
     CHECK(st.surface_cells_level3 > 0);
+}
+
+TEST_CASE("a sheet one particle thick stays one piece in adaptive mode, as at uniform r", "[e2e][levels]") {
+    // At y = r the level-2 lattice (steps of 2r from the origin) puts its samples r off the sheet's
+    // middle on both sides, where the field is near zero: without the sheet rule
+    // (constants::kSheetNeighbourFraction) such a sheet came out in pieces with a third of its
+    // volume gone.
+    const float r = 0.025f;
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<float> jitter(-0.1f * r, 0.1f * r);
+    for (int axis : {1, 2}) {  // flat in y, then in z
+        std::vector<float> sheet;
+        for (int a = 0; a < 30; ++a)
+            for (int b = 0; b < 30; ++b) {
+                glm::vec3 p(2.0f * r * a + jitter(rng), r + jitter(rng), 2.0f * r * b + jitter(rng));
+                if (axis == 2) std::swap(p.y, p.z);
+                sheet.insert(sheet.end(), {p.x, p.y, p.z});
+            }
+        const std::string what = axis == 1 ? "sheet flat in y" : "sheet flat in z";
+        Stats st;
+        Mesh adaptive = shared_reconstructor().reconstruct(sheet.data(), sheet.size() / 3, params(r, Mode::Adaptive), &st);
+        Mesh uniform = shared_reconstructor().reconstruct(sheet.data(), sheet.size() / 3, params(r, Mode::Uniform, 1.0f));
+        require_closed(adaptive, what);
+        INFO(what);
+        CHECK(mesh_components(adaptive).count == 1);
+        CHECK(mesh_components(uniform).count == 1);
+        CHECK(signed_volume(adaptive) == Approx(signed_volume(uniform)).epsilon(0.02));
+        CHECK(st.surface_cells_level3 > 4 * st.surface_cells_level2);  // level 2 at the rim only
+    }
 }
 
 TEST_CASE("work-groups whose candidates do not fit local memory fall back to global loops", "[e2e][fallback]") {

@@ -56,6 +56,8 @@ ParticleFlags color_field(const std::vector<glm::vec3>& x, float r, float R) {
     out.neighbours.resize(n);
     out.surface.resize(n);
     out.splash.resize(n);
+    out.thin.resize(n);
+    const float sheet_limit = constants::sheet_neighbour_limit(R, std::pow(2.0f * r, 3.0f));  // as color_field gets it
     parallel_over(n, [&](std::size_t i) {
         double c = poly6(0.0, R);  // the particle itself
         glm::dvec3 g(0.0);
@@ -71,6 +73,7 @@ ParticleFlags color_field(const std::vector<glm::vec3>& x, float r, float R) {
         out.neighbours[i] = count;
         out.splash[i] = count < constants::kSplashNeighbours;
         out.surface[i] = out.splash[i] || V * glm::length(g) * R > constants::kSurfaceGradient;
+        out.thin[i] = count < constants::kThinNeighbours || (!out.surface[i] && float(count) < sheet_limit);
     });
     return out;
 }
@@ -159,12 +162,13 @@ SurfaceCells surface_cells(const std::vector<glm::vec3>& x, const ParticleFlags&
     std::unordered_set<std::uint64_t> splash_keys;
     std::unordered_map<std::uint64_t, CellKappa> per_cell;
     for (std::size_t i = 0; i < x.size(); ++i) {
-        if (!flags.surface[i]) continue;
+        if (!flags.surface[i] && !flags.thin[i]) continue;
         for_each_cell(cells_overlapping(x[i], origin, constants::kSurfaceBoxHalf * r, inv_edge),
                       [&](std::uint64_t k) { keys.push_back(k); });
-        if (flags.splash[i] || flags.neighbours[i] < constants::kThinNeighbours)
+        if (flags.splash[i] || flags.thin[i])
             for_each_cell(cells_overlapping(x[i], origin, constants::kSplashBoxHalf * r, inv_edge),
                           [&](std::uint64_t k) { splash_keys.insert(k); });
+        if (!flags.surface[i]) continue;  // a sheet particle: no normal, no curvature
         CellKappa& ck = per_cell[lattice::pack(coarse_of(x[i] - origin, inv_edge))];
         ck.sum += kappa[i];
         ck.count += 1;

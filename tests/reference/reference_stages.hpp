@@ -32,6 +32,8 @@ struct ParticleFlags {
     std::vector<int> neighbours;       ///< neighbour count, the particle itself excluded
     std::vector<std::uint8_t> surface; ///< |n_i| R > kSurfaceGradient, or splash
     std::vector<std::uint8_t> splash;  ///< neighbours < kSplashNeighbours
+    std::vector<std::uint8_t> thin;    ///< neighbours < kThinNeighbours, or not surface and neighbours below
+                                       ///< sheet_neighbour_limit (a sheet one particle thick)
 };
 
 ParticleFlags color_field(const std::vector<glm::vec3>& x, float r, float R);
@@ -57,10 +59,10 @@ struct SurfaceCells {
 /// Coarse cells of edge kCoarseCell * r, coord = floor((x - origin) * inv_edge), which must be >= 0,
 /// inv_edge = 1.0f / (kCoarseCell * r), all in float exactly as the kernels compute it.
 /// Surface cells: every cell overlapping the closed box x_i +- kSurfaceBoxHalf * r of a surface
-/// (splash included) particle i, i.e. per axis floor((x - origin - b) * inv_edge) ..
+/// (splash included) or thin particle i, i.e. per axis floor((x - origin - b) * inv_edge) ..
 /// floor((x - origin + b) * inv_edge). A surface cell is a splash cell when it also overlaps
-/// x_i +- kSplashBoxHalf*r of a splash or thin (neighbours < kThinNeighbours) particle; splash
-/// boxes add no cells. The level uses the cell curvature averaged over the 3x3x3 block.
+/// x_i +- kSplashBoxHalf*r of a splash or thin particle. Thin particles without surface gradient
+/// (sheets) add the cells of their box too, as surface particles do. The level uses the cell curvature averaged over the 3x3x3 block.
 /// forced_level: 0 = adaptive (level 3 if splash or curvature >= threshold, else 2); 2 or 3 =
 /// uniform mode, every cell gets that level.
 SurfaceCells surface_cells(const std::vector<glm::vec3>& x, const ParticleFlags& flags,
