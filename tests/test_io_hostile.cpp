@@ -175,7 +175,12 @@ std::vector<HostileCase> corpus() {
     inf_pts[7] = -INFINITY;
     c.push_back({"NaN/Inf", "nan.vtk", vtk_ascii(nan_pts, "float"), "line 9: particle 1: non-finite coordinate 'nan'"});
     c.push_back({"NaN/Inf", "inf.vtk", vtk_binary(inf_pts, "4.2", "POLYDATA", false), "offset 99: particle 2: non-finite"});
-    c.push_back({"NaN/Inf", "big.vtk", vtk_ascii_head + "POINTS 1 double\n1e300 0 0\n", "non-finite coordinate '1e300'"});
+    c.push_back({"NaN/Inf", "big.vtk", vtk_ascii_head + "POINTS 1 double\n1e300 0 0\n",
+                 "particle 0: coordinate '1e300' is beyond the float range (+-3.4e38)"});
+    c.push_back({"NaN/Inf", "bigbin.vtk",
+                 "# vtk DataFile Version 4.2\nx\nBINARY\nDATASET POLYDATA\nPOINTS 1 double\n" + be_bytes(0.0) +
+                     be_bytes(5e300) + be_bytes(0.0) + "\n",
+                 "particle 0: coordinate 5e+300 is beyond the float range (+-3.4e38)"});
     c.push_back({"NaN/Inf", "nan.vtu", make_vtu(nan_pts, {"ascii", "ascii"}), "particle 1"});
     c.push_back({"NaN/Inf", "nanraw.vtu", make_vtu(nan_pts, {"raw", "appended"}), "offset 291: the Points: particle 1"});
     c.push_back({"NaN/Inf", "infzlib.vtu", make_vtu(inf_pts, {"zlib", "binary", true, false, false, false, false, true}), "particle 2"});
@@ -183,7 +188,8 @@ std::vector<HostileCase> corpus() {
     c.push_back({"NaN/Inf", "infgz.bgeo", gzip(bgeo_file(inf_pts, false)), "particle 2: non-finite"});
     c.push_back({"NaN/Inf", "inf.ply", ply_file(inf_pts, "ascii", false), "vertex 2: non-finite"});
     c.push_back({"NaN/Inf", "nan.ply", ply_file(nan_pts, "binary_little_endian", true), "particle 1"});
-    c.push_back({"NaN/Inf", "big.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty double x\nproperty double y\nproperty double z\nend_header\n0 -1e39 0\n", "vertex 0: non-finite"});
+    c.push_back({"NaN/Inf", "big.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty double x\nproperty double y\nproperty double z\nend_header\n0 -1e39 0\n",
+                 "vertex 0: coordinate -1e+39 is beyond the float range (+-3.4e38)"});
     {
         std::string x(reinterpret_cast<const char*>(nan_pts.data()), nan_pts.size() * 4);
         c.push_back({"NaN/Inf", "nan.xyz", x, "offset 16: particle 1: non-finite"});

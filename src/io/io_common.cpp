@@ -92,10 +92,15 @@ void check_finite(const std::string& path, const std::vector<float>& xyz, const 
             fail(path, where.at(i, 4) + "particle " + std::to_string(i / 3) + ": non-finite coordinate (NaN or Inf)");
 }
 
+std::string coordinate_problem(double v) {
+    if (!std::isfinite(v)) return "non-finite coordinate (NaN or Inf)";
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%.6g", v);
+    return std::string("coordinate ") + buf + " is beyond the float range (+-3.4e38)";
+}
+
 float to_float_checked(const std::string& path, double v, std::size_t value_index, const std::string& where) {
-    if (!finite_float(v))
-        fail(path, where + "particle " + std::to_string(value_index / 3) +
-                       ": coordinate is not a finite float (NaN, Inf or out of range)");
+    if (!finite_float(v)) fail(path, where + "particle " + std::to_string(value_index / 3) + ": " + coordinate_problem(v));
     return static_cast<float>(v);
 }
 

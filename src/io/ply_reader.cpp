@@ -254,7 +254,7 @@ void read_ascii_vertices(const std::string& path, const std::string& data, const
             if (!s.dst) { w.skip_property(v.props[k]); continue; }
             const double x = w.number();
             if (s.coord && !keep_invalid && !finite_float(x))
-                fail(path, "line " + std::to_string(w.line) + ": vertex " + std::to_string(i) + ": non-finite coordinate");
+                fail(path, "line " + std::to_string(w.line) + ": vertex " + std::to_string(i) + ": " + coordinate_problem(x));
             (*s.dst)[s.stride * i + s.comp] = narrow_to_float(x);
         }
 }
