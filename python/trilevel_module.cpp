@@ -616,6 +616,8 @@ return_normals: also return the per-vertex normals ((m, 3) float32; None when th
 return_attributes: also return the vertex attributes ({name: (m,) or (m, 3) float32}; PLY: every
     vertex property but x y z, nx ny nz, level and colours, `a_x a_y a_z` as one vector `a`).)");
 
+    m.def("_check_mesh_extension", [](const std::filesystem::path& file) { trilevel::check_mesh_extension(file.string()); },
+          py::arg("path"), "Raises trilevel.Error unless write_mesh writes the path's extension.");
     m.def("write_mesh", [](const std::filesystem::path& file, const Array<float>& vertices, const py::object& triangles,
                            const std::optional<py::object>& vertex_level, bool color_levels,
                            const std::optional<Array<float>>& normals, const std::optional<py::dict>& attributes) {

@@ -57,6 +57,10 @@ struct MeshWriteOptions {
 /// Written to a temporary file in the target directory and renamed; never leaves a partial file.
 void write_mesh(const std::string& path, const Mesh& mesh, const MeshWriteOptions& options = {});
 
+/// Throws Error unless write_mesh writes `path`'s extension (.ply, .obj, .vtk, .vtp, .vtu): for
+/// checking an output name before the work that produces the mesh.
+void check_mesh_extension(const std::string& path);
+
 /// Reads a mesh written by write_mesh (.ply binary/ascii, .obj, .vtk), normals and attributes
 /// included (PLY: every vertex property but x, y, z, nx, ny, nz, level, red, green, blue is an
 /// attribute, `a_x a_y a_z` in a row a vector `a`); used by tests and tools.

@@ -124,6 +124,12 @@ class FindFramesTest(unittest.TestCase):
                 trilevel.dask.reconstruct_frames(frames, frames, R)
             with self.assertRaisesRegex(ValueError, f"frame {num(1)}: the stats .* would overwrite the mesh"):
                 trilevel.dask.plan_frames(frames, os.path.join(tmp, "m_{}.ply"), os.path.join(tmp, "m_{}.ply"))
+            # Output names the writers do not take: refused before any frame is reconstructed.
+            with self.assertRaisesRegex(trilevel.Error, "unknown mesh output extension 'foo'"):
+                trilevel.dask.reconstruct_frames(frames, os.path.join(tmp, "m_{}.foo"), R)
+            with self.assertRaisesRegex(ValueError, "unknown statistics extension 'txt', expected .json"):
+                trilevel.dask.reconstruct_frames(frames, os.path.join(tmp, "m_{}.ply"), R,
+                                                 stats_pattern=os.path.join(tmp, "s_{}.txt"))
             job = trilevel.dask.FrameJob(num(1), frames.replace("{}", num(1)), frames.replace("{}", num(1)))
             with self.assertRaisesRegex(ValueError, "would overwrite the input"):
                 trilevel.dask.reconstruct_frame(job, R)

@@ -82,7 +82,8 @@ class FrameResult:
 
 def _check_job(job: "FrameJob") -> None:
     """ValueError for a frame whose outputs would overwrite its input, or each other: the files
-    written, links resolved (writes go through them), as the CLI checks."""
+    written, links resolved (writes go through them), as the CLI checks; trilevel.Error for a mesh
+    extension write_mesh does not write, ValueError for statistics not named .json (the CLI's rule)."""
     written = {name: os.path.realpath(path) for name, path in
                (("input", job.input), ("mesh", job.output), ("stats", job.stats)) if path}
     if written["mesh"] == written["input"]:
@@ -90,6 +91,9 @@ def _check_job(job: "FrameJob") -> None:
     for other in ("input", "mesh"):
         if written.get("stats") == written[other]:
             raise ValueError(f"frame {job.number}: the stats {job.stats} would overwrite the {other}")
+    _trilevel._check_mesh_extension(job.output)
+    if job.stats and os.path.splitext(job.stats)[1].lower() != ".json":
+        raise ValueError(f"{job.stats}: unknown statistics extension '{os.path.splitext(job.stats)[1][1:]}', expected .json")
 
 
 def _names(attributes: Sequence[str]) -> list[str]:

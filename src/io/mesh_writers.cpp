@@ -312,11 +312,16 @@ void write_vtk_xml(AtomicWriter& out, const std::string& path, const Mesh& mesh,
 }  // namespace
 }  // namespace io
 
+void check_mesh_extension(const std::string& path) {
+    const std::string ext = io::extension_of(path);
+    if (ext != "ply" && ext != "obj" && ext != "vtk" && ext != "vtp" && ext != "vtu")
+        io::fail(path, "unknown mesh output extension '" + ext + "', expected .ply, .obj, .vtk, .vtp or .vtu");
+}
+
 void write_mesh(const std::string& path, const Mesh& mesh, const MeshWriteOptions& options) {
     using namespace io;
+    check_mesh_extension(path);
     const std::string ext = extension_of(path);
-    if (ext != "ply" && ext != "obj" && ext != "vtk" && ext != "vtp" && ext != "vtu")
-        fail(path, "unknown mesh output extension '" + ext + "', expected .ply, .obj, .vtk, .vtp or .vtu");
     check_mesh(path, mesh);
     AtomicWriter out(path);
     if (ext == "ply") write_ply(out, path, mesh, options);
