@@ -1,6 +1,7 @@
 // Pipeline orchestration (docs/design.md §2): device stages 1-6, then band closure, transition
 // continuity and the edge refinement (on the device), triangulation and crack closing on
 // the host. Each stage is a StageScope (stage_scope.hpp): timed on its own, and named in OpenCL errors.
+#include <array>
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -118,18 +119,36 @@ int length_scale_exponent(float r) {
     return -std::ilogb(r);
 }
 
+/// Per axis, whether the adaptive lattice is shifted by r (one level-3 step) from the global
+/// lattice of whole coarse cells: its level-2 planes then lie at odd multiples of r.
+using LatticePhase = std::array<bool, 3>;
+
+/// The phase that puts a level-2 plane through the lowest particle's coordinate, to within r/2, on
+/// each axis. Fluid made on a lattice of spacing 2r (a simulator's first frames, generated scenes)
+/// has its particle layers on one parity of r and its faces r beyond the outer layers, on the
+/// other. On level-2 planes, such faces meet at edges along level-2 lines, and the 2r lattice
+/// rounds each edge by up to 0.6 r (p99 0.55 r from the uniform cell-r mesh); with the layers on
+/// the planes the faces lie midway between them (p99 0.11 r). On disordered particles either phase
+/// is as good: the level-3 lattice, and so uniform r's, is the same in both (steps of r).
+LatticePhase lattice_phase_for(const Bounds& b, double r) {
+    LatticePhase phase{};
+    for (int a = 0; a < 3; ++a) phase[std::size_t(a)] = (std::llround(b.lo[a] / r) & 1) != 0;
+    return phase;
+}
+
 /// Lattice and coarse grid of a frame. Adaptive and uniform --cell 2 use lattice step r with
 /// coarse cells of 4 steps (levels 3 and 2); other uniform cells use step = cell.
 struct Grid {
     LatticeFrame lattice;  ///< the lattice's origin, step and key layout (what the stages take)
     glm::dvec3 origin;  ///< double-precision lattice origin; particles are uploaded relative to it
-    CoarseBase coarse_base{};  ///< origin / coarse_edge: a whole number, so frames share one lattice
+    CoarseBase coarse_base{};  ///< (origin - phase) / coarse_edge: a whole number, so frames share one lattice
+    LatticePhase phase{};      ///< adaptive mode: lattice_phase_for (the same for every frame of a level history)
     float coarse_edge = 0.0f;
     int forced_level = 0;  ///< 0: adaptive
     double extent_steps = 0;  ///< lattice steps the particles and their margin span on the widest axis
 };
 
-Grid make_grid(const Params& p, const Bounds& b) {
+Grid make_grid(const Params& p, const Bounds& b, const LatticePhase& phase) {
     Grid g;
     const double r = p.particle_radius;
     g.coarse_edge = float(constants::kCoarseCell * r);
@@ -144,10 +163,15 @@ Grid make_grid(const Params& p, const Bounds& b) {
     const glm::dvec3 lo(b.lo[0], b.lo[1], b.lo[2]), hi(b.hi[0], b.hi[1], b.hi[2]);
     const double edge = g.coarse_edge;
     // Two coarse cells of margin: the surface lies within R = one coarse cell of the particles.
-    // Snapped to whole coarse cells, so every frame of a sequence uses the same global lattice
-    // (level_history.hpp).
-    const glm::dvec3 base = glm::floor(lo / edge) - 2.0;
-    g.origin = base * edge;
+    // Snapped to whole coarse cells plus the phase, so every frame of a sequence uses the same
+    // global lattice (level_history.hpp).
+    glm::dvec3 shift(0.0);
+    if (p.mode == Mode::Adaptive) {
+        g.phase = phase;
+        for (int a = 0; a < 3; ++a) shift[a] = phase[std::size_t(a)] ? r : 0.0;
+    }
+    const glm::dvec3 base = glm::floor((lo - shift) / edge) - 2.0;
+    g.origin = base * edge + shift;
     for (int a = 0; a < 3; ++a) g.coarse_base[std::size_t(a)] = std::int64_t(base[a]);
     g.lattice.origin = glm::vec3(g.origin);
     glm::dvec3 extent = (hi - g.origin) / double(g.lattice.step) + 3.0 * g.lattice.coarse_steps;
@@ -493,6 +517,7 @@ struct Reconstructor::Impl {
     /// uploaded them (null: none, or normals or attributes read them later).
     std::vector<float>* handed_over = nullptr;
     Params history_params;
+    LatticePhase history_phase{};  ///< the lattice phase of the frames in `history`
     float user_radius = 0.0f;  ///< the radius as given, for messages (the pipeline may run scaled)
     /// Set by reconstruct() for a frame whose post-processing reads per-vertex data of the
     /// particles (smoothing weights) and whose mesh comes from one unscaled lattice: called with
@@ -517,6 +542,12 @@ struct Reconstructor::Impl {
     /// domain, each on a lattice of its own).
     Mesh run_stages(const float* xyz, std::size_t n, const Params& p, const Grid& g, Stats& s, bool keep_levels = true);
     void remember_levels(const std::vector<CoarseCell>& cells, const Grid& g, const Params& p, Stats& s);
+    /// The lattice phase of a frame: the level history's while it lasts (its cells are those of one
+    /// lattice), else lattice_phase_for the frame's bounds.
+    LatticePhase phase_for(const Params& p, const Bounds& b) const {
+        if (!history.empty() && levels_comparable(history_params, p)) return history_phase;
+        return lattice_phase_for(b, p.particle_radius);
+    }
     /// run_stages()' end for a deferred triangulation: the fine-point table copied to the host and
     /// the device's buffers given back, the frame's levels and device figures recorded now (the
     /// next frame's stages need the levels), and the triangulation left to `t`, which then reads
@@ -635,7 +666,7 @@ Mesh Reconstructor::Impl::mesh_in_float_range(const float* xyz, std::size_t n, c
         validate_against(p, b);
         user_radius = p.particle_radius;
         if (rt.has_fp64() && length_scale_exponent(p.particle_radius) == 0) {
-            const Grid g = make_grid(p, b);
+            const Grid g = make_grid(p, b, phase_for(p, b));
             if (g.extent_steps <= lattice_capacity_steps()) return run_stages(nullptr, n, p, g, s);
         }
         read_back = read_device_positions(rt, *device_in);  // scaled or split on the host
@@ -662,7 +693,7 @@ Mesh Reconstructor::Impl::mesh_in_float_range(const float* xyz, std::size_t n, c
 /// lattice of its own, their meshes concatenated (domain_split.hpp).
 Mesh Reconstructor::Impl::mesh_domain(const float* xyz, std::size_t n, const Params& p, Stats& s, const Bounds& b) {
     const double capacity = lattice_capacity_steps();
-    const Grid g = make_grid(p, b);
+    const Grid g = make_grid(p, b, phase_for(p, b));
     if (g.extent_steps <= capacity) return run_stages(xyz, n, p, g, s);
 
     const double R = double(p.kernel_radius) * p.particle_radius, edge = g.coarse_edge;
@@ -680,7 +711,8 @@ Mesh Reconstructor::Impl::mesh_domain(const float* xyz, std::size_t n, const Par
         part.resize(3 * members.size());
         for (std::size_t i = 0; i < members.size(); ++i)
             for (int a = 0; a < 3; ++a) part[3 * i + a] = xyz[3 * std::size_t(members[i]) + a];
-        const Grid gg = make_grid(p, bounds_of(part.data(), members.size()));
+        const Bounds gb = bounds_of(part.data(), members.size());
+        const Grid gg = make_grid(p, gb, lattice_phase_for(gb, p.particle_radius));
         if (gg.extent_steps > capacity)  // split_domain keeps every group within one lattice
             throw Error("internal: a particle group of " + std::to_string(members.size()) + " does not fit one lattice");
         Stats gs;
@@ -834,6 +866,7 @@ void Reconstructor::Impl::remember_levels(const std::vector<CoarseCell>& cells, 
     }
     history.record(cells, g.coarse_base);
     history_params = p;
+    history_phase = g.phase;
 }
 
 Reconstructor::Reconstructor(int device, std::function<void(const KernelCompileNotice&)> on_compile)
