@@ -123,16 +123,20 @@ int length_scale_exponent(float r) {
 /// lattice of whole coarse cells: its level-2 planes then lie at odd multiples of r.
 using LatticePhase = std::array<bool, 3>;
 
-/// The phase that puts a level-2 plane through the lowest particle's coordinate, to within r/2, on
-/// each axis. Fluid made on a lattice of spacing 2r (a simulator's first frames, generated scenes)
-/// has its particle layers on one parity of r and its faces r beyond the outer layers, on the
-/// other. On level-2 planes, such faces meet at edges along level-2 lines, and the 2r lattice
-/// rounds each edge by up to 0.6 r (p99 0.55 r from the uniform cell-r mesh); with the layers on
-/// the planes the faces lie midway between them (p99 0.11 r). On disordered particles either phase
-/// is as good: the level-3 lattice, and so uniform r's, is the same in both (steps of r).
+/// Per axis, r when the lowest particle lies within r/4 of an odd multiple of r, else 0: a level-2
+/// plane then goes through the lowest layer of particles. Fluid made on a lattice of spacing 2r (a
+/// simulator's first frames, generated scenes) has its particle layers on one parity of r and its
+/// faces r beyond the outer layers, on the other. On level-2 planes, such faces meet at edges along
+/// level-2 lines, and the 2r lattice rounds each edge by up to 0.6 r (p99 0.55 r from the uniform
+/// cell-r mesh); with the layers on the planes the faces lie midway between them (p99 0.11 r).
+/// Disordered particles mostly keep phase 0, on which the levels were calibrated (docs/calibration.md);
+/// the level-3 lattice, and so uniform r's, is the same in both (steps of r).
 LatticePhase lattice_phase_for(const Bounds& b, double r) {
     LatticePhase phase{};
-    for (int a = 0; a < 3; ++a) phase[std::size_t(a)] = (std::llround(b.lo[a] / r) & 1) != 0;
+    for (int a = 0; a < 3; ++a) {
+        const double t = b.lo[a] / r, odd = 2.0 * std::floor(0.5 * t) + 1.0;  // the odd multiple of r nearest t
+        phase[std::size_t(a)] = std::fabs(t - odd) < 0.25;
+    }
     return phase;
 }
 
