@@ -84,6 +84,15 @@ BinnedParticles bin_device_positions(OpenCLRuntime& rt, const DeviceInput& in, g
     return bin_positions(rt, std::move(pos), in.count, cell, check_load);
 }
 
+std::vector<float> read_device_sample(OpenCLRuntime& rt, const DeviceInput& in, std::size_t step) {
+    const std::size_t m = (in.count + step - 1) / step;
+    std::vector<float> xyz(3 * m);
+    if (m == 0) return xyz;
+    const cl::array<cl::size_type, 3> at{in.offset, 0, 0}, host_at{0, 0, 0}, region{12, m, 1};
+    rt.queue().enqueueReadBufferRect(in.buffer, CL_TRUE, at, host_at, region, step * in.stride, 0, 12, 0, xyz.data());
+    return xyz;
+}
+
 std::vector<float> read_device_positions(OpenCLRuntime& rt, const DeviceInput& in) {
     std::vector<float> xyz(3 * in.count);
     if (in.stride == 12) {

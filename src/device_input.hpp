@@ -32,6 +32,9 @@ Bounds device_bounds(OpenCLRuntime& rt, const DeviceInput& in);
 BinnedParticles bin_device_positions(OpenCLRuntime& rt, const DeviceInput& in, glm::dvec3 origin, float cell,
                                      const PairLoadCheck& check_load = {});
 
+/// Particles 0, step, 2 step, ... copied to the host, x, y, z each (one rectangular read).
+std::vector<float> read_device_sample(OpenCLRuntime& rt, const DeviceInput& in, std::size_t step);
+
 /// The positions copied to the host, x, y, z per particle (the fallback of the device path).
 std::vector<float> read_device_positions(OpenCLRuntime& rt, const DeviceInput& in);
 

@@ -123,21 +123,39 @@ int length_scale_exponent(float r) {
 /// lattice of whole coarse cells: its level-2 planes then lie at odd multiples of r.
 using LatticePhase = std::array<bool, 3>;
 
-/// Per axis, r when the lowest particle lies within r/4 of an odd multiple of r, else 0: a level-2
-/// plane then goes through the lowest layer of particles. Fluid made on a lattice of spacing 2r (a
-/// simulator's first frames, generated scenes) has its particle layers on one parity of r and its
-/// faces r beyond the outer layers, on the other. On level-2 planes, such faces meet at edges along
-/// level-2 lines, and the 2r lattice rounds each edge by up to 0.6 r (p99 0.55 r from the uniform
-/// cell-r mesh); with the layers on the planes the faces lie midway between them (p99 0.11 r).
-/// Disordered particles mostly keep phase 0, on which the levels were calibrated (docs/calibration.md);
-/// the level-3 lattice, and so uniform r's, is the same in both (steps of r).
-LatticePhase lattice_phase_for(const Bounds& b, double r) {
+/// Per axis, r when most particles lie within r/4 of an odd multiple of r, else 0: a level-2 plane
+/// then goes through every layer of a fluid made on a lattice of spacing 2r with its layers at odd
+/// multiples of r (a simulator's first frames filled from a round corner, particles.py's generated
+/// scenes). Its faces lie r beyond the outer layers, on even multiples: on level-2 planes they met
+/// at edges along level-2 lines, which the 2r lattice rounds by up to 0.6 r (p99 0.55 r from the
+/// uniform cell-r mesh); between the planes, p99 0.11 r. Disordered particles (a quarter of them
+/// within r/4 of an odd multiple) and layers at even multiples keep phase 0, on which the levels
+/// were calibrated (docs/calibration.md). The level-3 lattice, and so uniform r's, is the same in
+/// both phases (steps of r). Judged on particles 0, step, 2 step, ... (phase_sample_step), which
+/// the device path reads alike.
+constexpr std::size_t kPhaseSamples = 4096;
+std::size_t phase_sample_step(std::size_t n) { return std::max<std::size_t>(1, n / kPhaseSamples); }
+
+LatticePhase lattice_phase_of_sample(const std::vector<float>& sample, double r) {
     LatticePhase phase{};
+    const std::size_t m = sample.size() / 3;
     for (int a = 0; a < 3; ++a) {
-        const double t = b.lo[a] / r, odd = 2.0 * std::floor(0.5 * t) + 1.0;  // the odd multiple of r nearest t
-        phase[std::size_t(a)] = std::fabs(t - odd) < 0.25;
+        std::size_t on_odd = 0;
+        for (std::size_t i = 0; i < m; ++i) {
+            const double t = double(sample[3 * i + std::size_t(a)]) / r;
+            on_odd += std::fabs(t - (2.0 * std::floor(0.5 * t) + 1.0)) < 0.25;  // 2 floor(t/2) + 1: the nearest odd
+        }
+        phase[std::size_t(a)] = m > 0 && double(on_odd) > 0.75 * double(m);
     }
     return phase;
+}
+
+LatticePhase lattice_phase_for(const float* xyz, std::size_t n, double r) {
+    const std::size_t step = phase_sample_step(n);
+    std::vector<float> sample;
+    sample.reserve(3 * ((n + step - 1) / step));
+    for (std::size_t i = 0; i < n; i += step) sample.insert(sample.end(), xyz + 3 * i, xyz + 3 * i + 3);
+    return lattice_phase_of_sample(sample, r);
 }
 
 /// Lattice and coarse grid of a frame. Adaptive and uniform --cell 2 use lattice step r with
@@ -547,10 +565,11 @@ struct Reconstructor::Impl {
     Mesh run_stages(const float* xyz, std::size_t n, const Params& p, const Grid& g, Stats& s, bool keep_levels = true);
     void remember_levels(const std::vector<CoarseCell>& cells, const Grid& g, const Params& p, Stats& s);
     /// The lattice phase of a frame: the level history's while it lasts (its cells are those of one
-    /// lattice), else lattice_phase_for the frame's bounds.
-    LatticePhase phase_for(const Params& p, const Bounds& b) const {
+    /// lattice), else `own()` (lattice_phase_for the frame's particles).
+    template <class Own>
+    LatticePhase phase_for(const Params& p, Own&& own) const {
         if (!history.empty() && levels_comparable(history_params, p)) return history_phase;
-        return lattice_phase_for(b, p.particle_radius);
+        return own();
     }
     /// run_stages()' end for a deferred triangulation: the fine-point table copied to the host and
     /// the device's buffers given back, the frame's levels and device figures recorded now (the
@@ -670,7 +689,10 @@ Mesh Reconstructor::Impl::mesh_in_float_range(const float* xyz, std::size_t n, c
         validate_against(p, b);
         user_radius = p.particle_radius;
         if (rt.has_fp64() && length_scale_exponent(p.particle_radius) == 0) {
-            const Grid g = make_grid(p, b, phase_for(p, b));
+            const LatticePhase phase = phase_for(p, [&] {
+                return lattice_phase_of_sample(read_device_sample(rt, *device_in, phase_sample_step(n)), p.particle_radius);
+            });
+            const Grid g = make_grid(p, b, phase);
             if (g.extent_steps <= lattice_capacity_steps()) return run_stages(nullptr, n, p, g, s);
         }
         read_back = read_device_positions(rt, *device_in);  // scaled or split on the host
@@ -697,7 +719,7 @@ Mesh Reconstructor::Impl::mesh_in_float_range(const float* xyz, std::size_t n, c
 /// lattice of its own, their meshes concatenated (domain_split.hpp).
 Mesh Reconstructor::Impl::mesh_domain(const float* xyz, std::size_t n, const Params& p, Stats& s, const Bounds& b) {
     const double capacity = lattice_capacity_steps();
-    const Grid g = make_grid(p, b, phase_for(p, b));
+    const Grid g = make_grid(p, b, phase_for(p, [&] { return lattice_phase_for(xyz, n, p.particle_radius); }));
     if (g.extent_steps <= capacity) return run_stages(xyz, n, p, g, s);
 
     const double R = double(p.kernel_radius) * p.particle_radius, edge = g.coarse_edge;
@@ -715,8 +737,8 @@ Mesh Reconstructor::Impl::mesh_domain(const float* xyz, std::size_t n, const Par
         part.resize(3 * members.size());
         for (std::size_t i = 0; i < members.size(); ++i)
             for (int a = 0; a < 3; ++a) part[3 * i + a] = xyz[3 * std::size_t(members[i]) + a];
-        const Bounds gb = bounds_of(part.data(), members.size());
-        const Grid gg = make_grid(p, gb, lattice_phase_for(gb, p.particle_radius));
+        const Grid gg = make_grid(p, bounds_of(part.data(), members.size()),
+                                  lattice_phase_for(part.data(), members.size(), p.particle_radius));
         if (gg.extent_steps > capacity)  // split_domain keeps every group within one lattice
             throw Error("internal: a particle group of " + std::to_string(members.size()) + " does not fit one lattice");
         Stats gs;

@@ -109,6 +109,32 @@ TEST_CASE("Device positions: float3 and float4 buffers of a caller's context giv
     }
 }
 
+TEST_CASE("Device positions: a block made on a lattice gets the host path's lattice phase", "[device_positions]") {
+    // Layers at odd multiples of r: the lattice phase shifts the level-2 planes onto them
+    // (reconstructor.cpp, lattice_phase_for; its effect: test_end_to_end.cpp, "a block made on a
+    // lattice"), judged on every second particle here (8192 of them), which the device path reads
+    // from the caller's float4 buffer: another phase would give another mesh.
+    trilevel::Reconstructor host;
+    Simulator sim(host.device().index);
+    trilevel::Reconstructor rec(sim.context, sim.device, sim.queue);
+    const float r = 0.025f;
+    std::vector<float> xyz;
+    for (int k = 0; k < 16; ++k)
+        for (int j = 0; j < 16; ++j)
+            for (int i = 0; i < 32; ++i)
+                for (int c : {i, j, k}) xyz.push_back(float(2 * c + 1) * r + 0.003f * r * float((i * 7 + j * 3 + k) % 5));
+    const std::size_t n = xyz.size() / 3;
+    trilevel::Params p = params();
+    p.particle_radius = r;
+    const trilevel::Mesh expected = host.reconstruct(xyz.data(), n, p);
+    trilevel::DevicePositions d;
+    d.buffer = sim.buffer(as_float4(xyz, 3));
+    d.count = n;
+    d.offset = 12;
+    d.stride = 16;
+    CHECK(same_mesh(rec.reconstruct(d, p), expected));
+}
+
 TEST_CASE("Device positions: after an event of another queue, an offset into a larger buffer, normals", "[device_positions]") {
     trilevel::Reconstructor host;
     Simulator sim(host.device().index, CL_QUEUE_PROFILING_ENABLE);
