@@ -4,9 +4,7 @@
 //   phi = |x - xbar| - r f(EVmax), EVmax = largest real part of the eigenvalues of J = d xbar / dx.
 // Sums use y_j = x_j - x (translation invariant, better float precision):
 //   J = (sum y_j (x) grad k_j - ybar (x) sum grad k_j) / K,  grad k_j = -6 (1 - s_j^2)^2 (x - x_j) / R^2.
-// A point with no particle within OUTSIDE_DISTANCE r is outside: phi = d_min - OUTSIDE_DISTANCE r
-// where phi < 0 (src/stage_constants.hpp, kOutsideDistance).
-// Build options: EV_LOW, EV_HIGH, OUTSIDE_DISTANCE, VECTOR_WIDTH (8 or 16: points a work-item evaluates at once).
+// Build options: EV_LOW, EV_HIGH, VECTOR_WIDTH (8 or 16: points a work-item evaluates at once).
 // Uses: contract.h (CLAIM_*, MAX_CELL_POINTS), hash_table.cl, particle_binning.cl (FOR_EACH_NEIGHBOUR_BIN, candidate),
 // refine_points.cl (cell_level, cell_has_point).
 
@@ -105,12 +103,6 @@ inline float solenthaler_value(float K, float3 ybar, float ev, float r, float R)
     return K <= 0.0f ? R : length(ybar) - r * solenthaler_f(ev);
 }
 
-// phi, made outside where no particle lies within OUTSIDE_DISTANCE r (d2_min: the nearest squared distance).
-inline float outside_beyond(float phi, float d2_min, float r) {
-    const float reach = OUTSIDE_DISTANCE * r;
-    return (phi < 0.0f && d2_min > reach * reach) ? sqrt(d2_min) - reach : phi;
-}
-
 inline float solenthaler_phi(float K, float3 S, float3 G, float3 A0, float3 A1, float3 A2, float r, float R) {
     if (K <= 0.0f) return R;
     float3 ybar = S / K;
@@ -131,11 +123,9 @@ __kernel void scalar_field(__global const uint* pending, uint count, __global co
     float K = 0.0f;
     float3 S = (float3)(0.0f), G = (float3)(0.0f);
     float3 A0 = (float3)(0.0f), A1 = (float3)(0.0f), A2 = (float3)(0.0f);  // rows of sum y (x) grad k
-    float d2_min = INFINITY;
     FOR_EACH_NEIGHBOUR_BIN(x, inv_cell, bin_keys, bin_capacity, range, sorted, {
         float3 y = pj.xyz - x.xyz;
         float d2 = dot(y, y);
-        d2_min = fmin(d2_min, d2);
         float q = 1.0f - d2 * inv_R2;
         if (q > SUPPORT_CUT) {  // the support's cut rim (src/stage_constants.hpp)
             float k = q * q * q;
@@ -148,7 +138,7 @@ __kernel void scalar_field(__global const uint* pending, uint count, __global co
             A2 += y.z * gk;
         }
     })
-    values[slot] = outside_beyond(solenthaler_phi(K, S, G, A0, A1, A2, r, R), d2_min, r);
+    values[slot] = solenthaler_phi(K, S, G, A0, A1, A2, r, R);
 }
 
 // Candidate particles of one coarse cell gathered into local memory (paper Fig. 3: the particles
@@ -404,12 +394,10 @@ inline void evaluate_claimed(__local const uint* claimed, uint n_claimed, __loca
         floatL K = 0.0f, Sx = 0.0f, Sy = 0.0f, Sz = 0.0f, Gx = 0.0f, Gy = 0.0f, Gz = 0.0f;
         floatL Axx = 0.0f, Axy = 0.0f, Axz = 0.0f, Ayx = 0.0f, Ayy = 0.0f, Ayz = 0.0f, Azx = 0.0f, Azy = 0.0f,
                Azz = 0.0f;
-        floatL d2_min = INFINITY;
         for (uint j = 0; j < n_near; ++j) {
             const uint c = near[j];
             const floatL yx = cx[c] - X, yy = cy[c] - Y, yz = cz[c] - Z;
             const floatL d2 = yx * yx + yy * yy + yz * yz;
-            d2_min = fmin(d2_min, d2);
             const floatL q0 = 1.0f - d2 * inv_R2;
             const floatL q = select((floatL)(0.0f), q0, q0 > SUPPORT_CUT);  // 0 beyond the cut: adds nothing
             const floatL k = q * q * q;
@@ -428,12 +416,10 @@ inline void evaluate_claimed(__local const uint* claimed, uint n_claimed, __loca
             (Axx - bx * Gx) * inv_K, (Axy - bx * Gy) * inv_K, (Axz - bx * Gz) * inv_K, (Ayx - by * Gx) * inv_K,
             (Ayy - by * Gy) * inv_K, (Ayz - by * Gz) * inv_K, (Azx - bz * Gx) * inv_K, (Azy - bz * Gy) * inv_K,
             (Azz - bz * Gz) * inv_K);
-        float k_[VECTOR_WIDTH], ybx[VECTOR_WIDTH], yby[VECTOR_WIDTH], ybz[VECTOR_WIDTH], ev_[VECTOR_WIDTH], dm_[VECTOR_WIDTH];
+        float k_[VECTOR_WIDTH], ybx[VECTOR_WIDTH], yby[VECTOR_WIDTH], ybz[VECTOR_WIDTH], ev_[VECTOR_WIDTH];
         vstoreL(K, 0, k_); vstoreL(bx, 0, ybx); vstoreL(by, 0, yby); vstoreL(bz, 0, ybz); vstoreL(ev, 0, ev_);
-        vstoreL(d2_min, 0, dm_);
         for (int l = 0; l < VECTOR_WIDTH && first + l < n_claimed; ++l) {
-            const float phi =
-                outside_beyond(solenthaler_value(k_[l], (float3)(ybx[l], yby[l], ybz[l]), ev_[l], r, R), dm_[l], r);
+            const float phi = solenthaler_value(k_[l], (float3)(ybx[l], yby[l], ybz[l]), ev_[l], r, R);
             value_bits[claimed[first + l]] = as_uint(phi);
         }
     }

@@ -97,14 +97,6 @@ constexpr float kDefaultCurvatureThreshold = 8.0f;
 /// those 27 bins instead of 4-5 per axis, and a point shared by cells gets the same bits from each.
 constexpr float kSupportCut = 1.0f / 512.0f;
 
-/// A point farther than kOutsideDistance * r from every particle is outside, whatever phi says
-/// (beyond the paper): there phi = d_min - kOutsideDistance r where Solenthaler's phi was negative.
-/// Between particles that do not touch, the weighted mean xbar passes through the points midway,
-/// and f(EVmax) damps the inside only partly: two particles 4.4-4.6 r apart made a third, empty blob
-/// between them, and dam-break frame 23 had nine such specks. Inside fluid at rest spacing 2r no
-/// point is farther than sqrt(3) r = 1.73 r from a particle, so bulk water never meets the rule.
-constexpr float kOutsideDistance = 2.0f;
-
 /// Solenthaler et al. 2007 eigenvalue thresholds (docs/design.md §3.3).
 constexpr float kEvLow = 0.4f;
 constexpr float kEvHigh = 3.5f;

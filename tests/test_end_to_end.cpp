@@ -408,41 +408,6 @@ TEST_CASE("the lattice phase of a sequence's first frame is kept while the level
     CHECK(same_mesh(rec.reconstruct(even.data(), even.size() / 3, p), alone));
 }
 
-TEST_CASE("two particles 4.4 to 4.6 r apart give no empty blob between them", "[e2e]") {
-    // Solenthaler's weighted mean put a third, empty blob midway for some offsets against the
-    // lattice (6 of 24 here): no particle lies within kOutsideDistance r there. (A neck between
-    // the two, which the field makes at 4.4 r for some offsets, is another matter.)
-    const float r = 0.025f;
-    std::mt19937 rng(4);
-    std::uniform_real_distribution<float> offset(0.0f, 4.0f * r);
-    for (float d : {4.4f, 4.5f, 4.6f})
-        for (int k = 0; k < 8; ++k) {
-            const glm::vec3 o(offset(rng), offset(rng), offset(rng));
-            const float pair[6] = {o.x, o.y, o.z, o.x + d * r, o.y, o.z};
-            INFO(d << " r apart, offset " << o.x / r << " " << o.y / r << " " << o.z / r << " r");
-            for (Mode mode : {Mode::Adaptive, Mode::Uniform}) {
-                const Mesh m = shared_reconstructor().reconstruct(pair, 2, params(r, mode));
-                require_closed(m, "pair");
-                const MeshComponents parts = mesh_components(m);
-                CHECK(parts.count <= 2);
-                std::vector<glm::vec3> lo(parts.count, glm::vec3(1e30f)), hi(parts.count, glm::vec3(-1e30f));
-                for (std::size_t v = 0; v < m.vertex_count(); ++v) {
-                    const glm::vec3 p(m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]);
-                    lo[parts.of_vertex[v]] = glm::min(lo[parts.of_vertex[v]], p);
-                    hi[parts.of_vertex[v]] = glm::max(hi[parts.of_vertex[v]], p);
-                }
-                for (std::size_t c = 0; c < parts.count; ++c) {  // each part holds a particle
-                    bool holds = false;
-                    for (int i = 0; i < 2; ++i) {
-                        const glm::vec3 x(pair[3 * i], pair[3 * i + 1], pair[3 * i + 2]);
-                        holds = holds || glm::all(glm::lessThanEqual(lo[c], x) && glm::lessThanEqual(x, hi[c]));
-                    }
-                    CHECK(holds);
-                }
-            }
-        }
-}
-
 TEST_CASE("work-groups whose candidates do not fit local memory fall back to global loops", "[e2e][fallback]") {
     // With room for 16 candidates every bin and cell overflows: colour field, curvature and scalar
     // field all take their global-memory paths (small-local-memory GPUs hit them on dense data).

@@ -42,11 +42,10 @@ double radius_factor(double ev_max) {
 double field_from_offsets(const glm::dvec3* y, std::size_t count, double r, double R) {
     // Sums over y_j = x_j - x (small numbers, no cancellation against large coordinates):
     // K, sum k_j y_j, sum grad k_j, sum y_j (x) grad k_j.
-    double K = 0.0, d2_min = INFINITY;
+    double K = 0.0;
     glm::dvec3 ky(0.0), gk(0.0);
     glm::dmat3 ygk(0.0);  // column-major: ygk[b][a] = sum y_a (grad k)_b
     for (std::size_t j = 0; j < count; ++j) {
-        d2_min = std::min(d2_min, glm::dot(y[j], y[j]));
         const double u = 1.0 - glm::dot(y[j], y[j]) / (R * R);
         if (u <= double(constants::kSupportCut)) continue;  // the support's cut rim (stage_constants.hpp)
         const double k = u * u * u;
@@ -63,9 +62,7 @@ double field_from_offsets(const glm::dvec3* y, std::size_t count, double r, doub
     double J[3][3];
     for (int a = 0; a < 3; ++a)
         for (int b = 0; b < 3; ++b) J[a][b] = Jm[b][a];
-    const double phi = glm::length(ybar) - r * radius_factor(largest_real_eigenvalue_cubic(J));
-    const double reach = double(constants::kOutsideDistance) * r;  // nothing within it: outside
-    return phi < 0.0 && d2_min > reach * reach ? std::sqrt(d2_min) - reach : phi;
+    return glm::length(ybar) - r * radius_factor(largest_real_eigenvalue_cubic(J));
 }
 
 }  // namespace trilevel

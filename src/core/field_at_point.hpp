@@ -17,8 +17,7 @@ double largest_real_eigenvalue_cubic(const double J[3][3]);
 /// phi at a point x from the offsets y_j = x_j - x of its particles (those with |y_j| < R; the
 /// support's cut rim is dropped as on the device), summed in the given order: |xbar - x| - r f(EVmax),
 /// f the radius factor of the largest real eigenvalue of grad xbar (largest_real_eigenvalue_cubic);
-/// +R where no particle has weight; d_min - kOutsideDistance r where phi < 0 but no particle lies
-/// within kOutsideDistance r. r: particle radius, R: support radius, world units.
+/// +R where no particle has weight. r: particle radius, R: support radius, world units.
 double field_from_offsets(const glm::dvec3* y, std::size_t count, double r, double R);
 
 }  // namespace trilevel

@@ -62,9 +62,7 @@ FieldSample field_from_offsets(const glm::dvec3* y, std::size_t count, double r,
     FieldSample s;
     glm::dvec3 ky(0.0), gk(0.0);
     glm::dmat3 ygk(0.0);  // column-major: ygk[b][a] = sum y_a (grad k)_b
-    double nearest = INFINITY;
     for (std::size_t j = 0; j < count; ++j) {
-        nearest = std::min(nearest, glm::length(y[j]));
         const double u = 1.0 - glm::dot(y[j], y[j]) / (R * R);
         if (u <= double(constants::kSupportCut)) continue;  // the support's cut rim (stage_constants.hpp)
         const double k = u * u * u;
@@ -89,8 +87,6 @@ FieldSample field_from_offsets(const glm::dvec3* y, std::size_t count, double r,
     s.ev_max = eigenvalue(J);
     s.f = radius_factor(s.ev_max);
     s.phi = glm::length(ybar) - r * s.f;
-    // Nothing within kOutsideDistance r: outside (stage_constants.hpp).
-    if (s.phi < 0.0 && nearest > double(constants::kOutsideDistance) * r) s.phi = nearest - double(constants::kOutsideDistance) * r;
     return s;
 }
 

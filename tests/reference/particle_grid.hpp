@@ -54,7 +54,7 @@ private:
 
 /// Every intermediate of the scalar field at one point, for diagnostics and kernel comparisons.
 struct FieldSample {
-    double phi = 0.0;        ///< |x - xbar| - r f; +R when K == 0; outside beyond kOutsideDistance r
+    double phi = 0.0;        ///< |x - xbar| - r f; +R when K == 0
     double K = 0.0;          ///< sum_j k_j
     glm::dvec3 xbar{0.0};    ///< weighted mean position
     double ev_max = 0.0;     ///< largest real eigenvalue part of J = grad xbar
