@@ -3,7 +3,7 @@
 // Runs over the binned (sorted) particles; outputs are in sorted order. Gradients are packed xyz
 // triples (3 floats a particle, not a float4): at 17.7 M particles the array is the largest one
 // alive in stages 2 and 4 after the positions.
-// Build options: SURFACE_GRADIENT, SPLASH_NEIGHBOURS, THIN_NEIGHBOURS, SHEET_FRACTION, SAME_SPOT.
+// Build options: SURFACE_GRADIENT, SPLASH_NEIGHBOURS, THIN_NEIGHBOURS, SAME_SPOT.
 // A neighbour closer than SAME_SPOT * R is the same spot, not a neighbour, for the splash and thin
 // counts: particles stacked on one point have no colour-field gradient at all, so without this a
 // pile of them would be neither surface nor splash and vanish from the mesh.
@@ -124,11 +124,10 @@ DEFINE_COLOR_BATCHES(16)
 __kernel void color_field(__global const float* sorted, __global const uint* occupied, uint occupied_count,
                           uint per_group, float inv_cell,
                           __global const ulong* bin_keys, ulong bin_capacity, __global const uint2* range, float R,
-                          float volume, __global float* gradient, __global uchar* flags, __local float4* cand,
+                          float volume, float sheet_limit, __global float* gradient, __global uchar* flags, __local float4* cand,
                           __local uint* bin_first, __local uint* bin_slot, __local uint* count) {
     const float R2 = R * R, same2 = R2 * (SAME_SPOT * SAME_SPOT);
     const float grad_norm = -945.0f / (32.0f * M_PI_F * pown(R, 9)) * volume;
-    const float sheet_limit = SHEET_FRACTION * (4.0f * 3.14159265f / 3.0f) * R * R * R / volume;  // sheet_neighbour_limit
     const uint lid = get_local_id(0), lsize = get_local_size(0);
     const uint first_bin = get_group_id(0) * per_group, end = min(first_bin + per_group, occupied_count);
     for (uint ob = first_bin; ob < end;) {

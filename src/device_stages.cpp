@@ -180,7 +180,8 @@ ParticleClasses classify_particles(OpenCLRuntime& rt, const BinnedParticles& b, 
     const float volume = std::pow(2.0f * r, 3.0f);
     kernels::color_field(rt, Groups{(b.occupied_count + kBinsPerGroup - 1) / kBinsPerGroup, kBinGroup}, b.sorted,
                          b.occupied, cl_uint(b.occupied_count), cl_uint(kBinsPerGroup), 1.0f / b.cell, b.bins.keys,
-                         cl_ulong(b.bins.capacity), b.range, R, volume, c.gradient, c.flags, candidate_lists(rt));
+                         cl_ulong(b.bins.capacity), b.range, R, volume, constants::sheet_neighbour_limit(R, volume), c.gradient,
+                         c.flags, candidate_lists(rt));
     for (cl_uchar f : read_buffer<cl_uchar>(rt, c.flags, n)) {
         c.surface += (f & contract::kFlagSurface) ? 1 : 0;
         c.splash += (f & contract::kFlagSplash) ? 1 : 0;

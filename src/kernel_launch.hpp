@@ -92,8 +92,8 @@ inline constexpr Kernel<Buf, cl_ulong, Buf> bin_sort_buckets{"bin_sort_buckets"}
 inline constexpr Kernel<Buf, cl_uint, Buf, Buf> bin_gather{"bin_gather"};
 
 // ---- color_field.cl (stage 2) ------------------------------------------------------------------
-//   sorted occupied occupied_count per_group inv_cell bin_keys bin_capacity range R volume gradient flags, gather
-inline constexpr Kernel<Buf, Buf, cl_uint, cl_uint, float, Buf, cl_ulong, Buf, float, float, Buf, Buf, CandidateLists>
+//   sorted occupied occupied_count per_group inv_cell bin_keys bin_capacity range R volume sheet_limit gradient flags, gather
+inline constexpr Kernel<Buf, Buf, cl_uint, cl_uint, float, Buf, cl_ulong, Buf, float, float, float, Buf, Buf, CandidateLists>
     color_field{"color_field"};
 
 // ---- surface_cells.cl (stage 3) ----------------------------------------------------------------

@@ -31,7 +31,7 @@ constexpr int kThinNeighbours = 6;
 constexpr float kSheetNeighbourFraction = 0.4f;
 
 /// The neighbour count below which a particle without surface gradient is a sheet particle, for
-/// support R and particle volume (2r)^3, in float as the colour-field kernel computes it.
+/// support R and particle volume (2r)^3 (the colour-field kernel takes it as an argument).
 inline float sheet_neighbour_limit(float R, float volume) {
     return kSheetNeighbourFraction * (4.0f * 3.14159265f / 3.0f) * R * R * R / volume;
 }
