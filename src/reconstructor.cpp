@@ -136,13 +136,14 @@ using LatticePhase = std::array<bool, 3>;
 constexpr std::size_t kPhaseSamples = 4096;
 std::size_t phase_sample_step(std::size_t n) { return std::max<std::size_t>(1, n / kPhaseSamples); }
 
-LatticePhase lattice_phase_of_sample(const std::vector<float>& sample, double r) {
+/// The phase judged on particles 0, step, 2 step, ... of the n in `xyz` (x, y, z each).
+LatticePhase lattice_phase_of(const float* xyz, std::size_t n, std::size_t step, double r) {
     LatticePhase phase{};
-    const std::size_t m = sample.size() / 3;
+    const std::size_t m = (n + step - 1) / step;
     for (int a = 0; a < 3; ++a) {
         std::size_t on_odd = 0;
-        for (std::size_t i = 0; i < m; ++i) {
-            const double t = double(sample[3 * i + std::size_t(a)]) / r;
+        for (std::size_t i = 0; i < n; i += step) {
+            const double t = double(xyz[3 * i + std::size_t(a)]) / r;
             on_odd += std::fabs(t - (2.0 * std::floor(0.5 * t) + 1.0)) < 0.25;  // 2 floor(t/2) + 1: the nearest odd
         }
         phase[std::size_t(a)] = m > 0 && double(on_odd) > 0.75 * double(m);
@@ -151,11 +152,7 @@ LatticePhase lattice_phase_of_sample(const std::vector<float>& sample, double r)
 }
 
 LatticePhase lattice_phase_for(const float* xyz, std::size_t n, double r) {
-    const std::size_t step = phase_sample_step(n);
-    std::vector<float> sample;
-    sample.reserve(3 * ((n + step - 1) / step));
-    for (std::size_t i = 0; i < n; i += step) sample.insert(sample.end(), xyz + 3 * i, xyz + 3 * i + 3);
-    return lattice_phase_of_sample(sample, r);
+    return lattice_phase_of(xyz, n, phase_sample_step(n), r);
 }
 
 /// Lattice and coarse grid of a frame. Adaptive and uniform --cell 2 use lattice step r with
@@ -690,7 +687,8 @@ Mesh Reconstructor::Impl::mesh_in_float_range(const float* xyz, std::size_t n, c
         user_radius = p.particle_radius;
         if (rt.has_fp64() && length_scale_exponent(p.particle_radius) == 0) {
             const LatticePhase phase = phase_for(p, [&] {
-                return lattice_phase_of_sample(read_device_sample(rt, *device_in, phase_sample_step(n)), p.particle_radius);
+                const std::vector<float> sample = read_device_sample(rt, *device_in, phase_sample_step(n));
+                return lattice_phase_of(sample.data(), sample.size() / 3, 1, p.particle_radius);
             });
             const Grid g = make_grid(p, b, phase);
             if (g.extent_steps <= lattice_capacity_steps()) return run_stages(nullptr, n, p, g, s);
