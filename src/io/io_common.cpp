@@ -92,11 +92,13 @@ void check_finite(const std::string& path, const std::vector<float>& xyz, const 
             fail(path, where.at(i, 4) + "particle " + std::to_string(i / 3) + ": non-finite coordinate (NaN or Inf)");
 }
 
-std::string coordinate_problem(double v) {
-    if (!std::isfinite(v)) return "non-finite coordinate (NaN or Inf)";
+std::string coordinate_problem(double v, std::string_view text) {
+    std::string quoted(1, '\'');  // appended, not "'" + string: g++ 12 warns falsely on that (-Wrestrict)
+    quoted.append(text.substr(0, 40)).push_back('\'');
+    if (!std::isfinite(v)) return "non-finite coordinate " + (text.empty() ? std::string("(NaN or Inf)") : quoted);
     char buf[40];
     std::snprintf(buf, sizeof buf, "%.6g", v);
-    return std::string("coordinate ") + buf + " is beyond the float range (+-3.4e38)";
+    return "coordinate " + (text.empty() ? std::string(buf) : quoted) + " is beyond the float range (+-3.4e38)";
 }
 
 float to_float_checked(const std::string& path, double v, std::size_t value_index, const std::string& where) {

@@ -49,8 +49,9 @@ inline bool finite_float(double v) { return std::isfinite(v) && std::fabs(v) <= 
 void check_finite(const std::string& path, const std::vector<float>& xyz, const ArrayLocation& where = {});
 
 /// "non-finite coordinate (NaN or Inf)", or "coordinate 1e+300 is beyond the float range (+-3.4e38)":
-/// what is wrong with a coordinate that finite_float refuses.
-std::string coordinate_problem(double v);
+/// what is wrong with a coordinate that finite_float refuses. `text`, where given, is the number
+/// as the file writes it, quoted in the message instead of the value.
+std::string coordinate_problem(double v, std::string_view text = {});
 
 /// Narrows a double coordinate; Error when it is not finite or does not fit a float.
 float to_float_checked(const std::string& path, double v, std::size_t value_index, const std::string& where = {});

@@ -164,9 +164,7 @@ private:
             double v;
             if (!parse_double(tok, v)) error("malformed number '" + std::string(tok.substr(0, 40)) + "'");
             if (finite_only && !finite_float(v))
-                error("particle " + std::to_string(i / 3) + ": " +
-                      (std::isfinite(v) ? "coordinate '" + std::string(tok.substr(0, 40)) + "' is beyond the float range (+-3.4e38)"
-                                        : "non-finite coordinate '" + std::string(tok.substr(0, 40)) + "'"));
+                error("particle " + std::to_string(i / 3) + ": " + coordinate_problem(v, tok));
             out[i] = narrow_to_float(v);
         }
         return out;
