@@ -118,12 +118,9 @@ TEST_CASE("Device positions: a block made on a lattice gets the host path's latt
     Simulator sim(host.device().index);
     trilevel::Reconstructor rec(sim.context, sim.device, sim.queue);
     const float r = 0.025f;
-    std::vector<float> xyz;
-    for (int k = 0; k < 16; ++k)
-        for (int j = 0; j < 16; ++j)
-            for (int i = 0; i < 32; ++i)
-                for (int c : {i, j, k}) xyz.push_back(float(2 * c + 1) * r + 0.003f * r * float((i * 7 + j * 3 + k) % 5));
-    const std::size_t n = xyz.size() / 3;
+    const auto block = trilevel::test::lattice_points(glm::ivec3(32, 16, 16), glm::vec3(r), 2 * r, 0.01f * r, 1);
+    const std::vector<float> xyz(&block[0].x, &block[0].x + 3 * block.size());
+    const std::size_t n = block.size();
     trilevel::Params p = params();
     p.particle_radius = r;
     const trilevel::Mesh expected = host.reconstruct(xyz.data(), n, p);

@@ -236,10 +236,7 @@ TEST_CASE("binning hands its pair load to the check before it scatters and sorts
 TEST_CASE("bins and coarse cells of particles far apart for their radius grow to fit in linear time", "[device][surface_cells]") {
     auto& rt = runtime();
     const float r = 0.025f, R = 4 * r;
-    std::vector<glm::vec3> x;
-    for (int i = 0; i < 40; ++i)
-        for (int j = 0; j < 40; ++j)
-            for (int k = 0; k < 40; ++k) x.push_back(glm::vec3(0.113f, 0.127f, 0.141f) + 20 * r * glm::vec3(i, j, k));
+    const std::vector<glm::vec3> x = test::lattice_points(glm::ivec3(40), glm::vec3(0.113f, 0.127f, 0.141f), 20 * r);
     const auto start = std::chrono::steady_clock::now();
     const BinnedParticles b = bin_particles(rt, &x[0].x, x.size(), glm::dvec3(0.0), R);
     CHECK(b.occupied_count == x.size());  // a bin each
@@ -412,10 +409,7 @@ TEST_CASE("a fine point gets the same bits whichever of its cells evaluates it",
     const float r = 0.025f, R = 4 * r;
     // An exact lattice of spacing 2r, lattice points every r: many particles lie exactly R from a
     // point, on a bin face, where float rounding decides what a cell's gather sees.
-    std::vector<glm::vec3> x;
-    for (int k = 0; k < 8; ++k)
-        for (int j = 0; j < 6; ++j)
-            for (int i = 0; i < 10; ++i) x.push_back(glm::vec3(12 * r) + 2.0f * r * glm::vec3(i, j, k));
+    const std::vector<glm::vec3> x = test::lattice_points(glm::ivec3(10, 6, 8), glm::vec3(12 * r), 2.0f * r);
     const BinnedParticles b = bin_particles(rt, &x[0].x, x.size(), glm::dvec3(0.0), R);
     ParticleClasses c = classify_particles(rt, b, r, R);
     const SurfaceCells sc = surface_cells(rt, b, c, r, R, 4 * r, 1e9f, 3);  // every cell level 3

@@ -362,17 +362,11 @@ TEST_CASE("a block made on a lattice keeps its edges whichever parity of r its p
     // lattice rounded each edge by up to 0.6 r; the lattice phase (make_grid) puts the layers on
     // the planes instead, so the faces lie midway between them, for either parity.
     const float r = 0.025f;
-    std::mt19937 rng(5);
-    std::uniform_real_distribution<float> jitter(-0.1f * r, 0.1f * r);
     for (int parity : {0, 1}) {
-        std::vector<float> block;
-        for (int k = 0; k < 8; ++k)
-            for (int j = 0; j < 8; ++j)
-                for (int i = 0; i < 16; ++i)
-                    for (int c : {i, j, k}) block.push_back(float(2 * c + parity) * r + jitter(rng));
+        const auto block = test::lattice_points(glm::ivec3(16, 8, 8), glm::vec3(float(parity) * r), 2 * r, 0.1f * r, 5);
         INFO("particle layers at " << (parity ? "odd" : "even") << " multiples of r");
-        const Mesh adaptive = shared_reconstructor().reconstruct(block.data(), block.size() / 3, params(r, Mode::Adaptive));
-        const Mesh uniform = shared_reconstructor().reconstruct(block.data(), block.size() / 3, params(r, Mode::Uniform, 1.0f));
+        const Mesh adaptive = shared_reconstructor().reconstruct(&block[0].x, block.size(), params(r, Mode::Adaptive));
+        const Mesh uniform = shared_reconstructor().reconstruct(&block[0].x, block.size(), params(r, Mode::Uniform, 1.0f));
         require_closed(adaptive, "block");
         const double there = vertex_distance_p99(adaptive, uniform) / r, back = vertex_distance_p99(uniform, adaptive) / r;
         INFO("p99 vertex distance, adaptive to uniform r " << there << " r, back " << back << " r");
@@ -385,27 +379,20 @@ TEST_CASE("the lattice phase of a sequence's first frame is kept while the level
     // The level history compares cells of one lattice, so a frame whose own phase would differ is
     // meshed on the phase of the frames before it; after reset_history() it takes its own again.
     const float r = 0.025f;
-    std::mt19937 rng(9);
-    std::uniform_real_distribution<float> jitter(-0.1f * r, 0.1f * r);
-    std::vector<float> odd, even;  // layers at odd multiples of r, then the same block moved by r in x
-    for (int k = 0; k < 6; ++k)
-        for (int j = 0; j < 6; ++j)
-            for (int i = 0; i < 10; ++i) {
-                const glm::vec3 p = glm::vec3(float(2 * i + 1), float(2 * j + 1), float(2 * k + 1)) * r +
-                                    glm::vec3(jitter(rng), jitter(rng), jitter(rng));
-                odd.insert(odd.end(), {p.x, p.y, p.z});
-                even.insert(even.end(), {p.x + r, p.y, p.z});
-            }
+    // Layers at odd multiples of r, then the same block moved by r in x.
+    const auto odd = test::lattice_points(glm::ivec3(10, 6, 6), glm::vec3(r), 2 * r, 0.1f * r, 9);
+    auto even = odd;
+    for (glm::vec3& x : even) x.x += r;
     Reconstructor& rec = shared_reconstructor();
     const Params p = params(r, Mode::Adaptive);  // no hysteresis: the history changes no level, only the phase is kept
-    const Mesh alone = rec.reconstruct(even.data(), even.size() / 3, p);
+    const Mesh alone = rec.reconstruct(&even[0].x, even.size(), p);
     rec.reset_history();
-    rec.reconstruct(odd.data(), odd.size() / 3, p);
-    const Mesh after_odd = rec.reconstruct(even.data(), even.size() / 3, p);
+    rec.reconstruct(&odd[0].x, odd.size(), p);
+    const Mesh after_odd = rec.reconstruct(&even[0].x, even.size(), p);
     CHECK_FALSE(same_mesh(alone, after_odd));
     require_closed(after_odd, "the moved block on the first frame's phase");
     rec.reset_history();
-    CHECK(same_mesh(rec.reconstruct(even.data(), even.size() / 3, p), alone));
+    CHECK(same_mesh(rec.reconstruct(&even[0].x, even.size(), p), alone));
 }
 
 TEST_CASE("work-groups whose candidates do not fit local memory fall back to global loops", "[e2e][fallback]") {

@@ -6,8 +6,11 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <random>
 #include <string>
 #include <vector>
+
+#include <glm/glm.hpp>
 
 #include <unistd.h>
 
@@ -73,5 +76,23 @@ struct TempDir {
     std::string file(const std::string& name) const { return (path / name).string(); }
     static int& counter() { static int c = 0; return c; }
 };
+
+/// The n.x * n.y * n.z points origin + spacing * (i, j, k), x fastest, each coordinate then moved
+/// by a uniform draw in [-jitter, jitter] from a generator seeded with `seed` (none when jitter is 0).
+inline std::vector<glm::vec3> lattice_points(glm::ivec3 n, glm::vec3 origin, float spacing, float jitter = 0.0f,
+                                             std::uint32_t seed = 0) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> move(-jitter, jitter);
+    std::vector<glm::vec3> x;
+    x.reserve(std::size_t(n.x) * std::size_t(n.y) * std::size_t(n.z));
+    for (int k = 0; k < n.z; ++k)
+        for (int j = 0; j < n.y; ++j)
+            for (int i = 0; i < n.x; ++i) {
+                glm::vec3 p = origin + spacing * glm::vec3(i, j, k);
+                if (jitter > 0.0f) p += glm::vec3(move(rng), move(rng), move(rng));
+                x.push_back(p);
+            }
+    return x;
+}
 
 }  // namespace trilevel::test
