@@ -6,7 +6,8 @@
 // Build options: SURFACE_GRADIENT, SPLASH_NEIGHBOURS, THIN_NEIGHBOURS, SAME_SPOT.
 // A neighbour closer than SAME_SPOT * R is the same spot, not a neighbour, for the splash and thin
 // counts: particles stacked on one point have no colour-field gradient at all, so without this a
-// pile of them would be neither surface nor splash and vanish from the mesh.
+// pile of them would be neither surface nor splash and vanish from the mesh. A pile spread a little
+// (every neighbour within R / 4, PILE_FRACTION) has next to no gradient either: it is splash too.
 // Uses: contract.h (FLAG_*), hash_table.cl, particle_binning.cl (gather_candidates, bin_ranges, FOR_EACH_NEIGHBOUR_BIN).
 
 // Writes FLAG_SURFACE, FLAG_SPLASH and FLAG_THIN (contract.h) per particle.
@@ -15,11 +16,11 @@
 // memory: for bins whose candidates do not fit in local memory.
 inline void color_field_global(uint i, __global const float* sorted, float inv_cell, __global const ulong* bin_keys,
                                ulong bin_capacity, __global const uint2* range, float R2, float grad_norm,
-                               float3* g_out, int* n_out) {
+                               float3* g_out, int* n_out, int* far_out) {
     const float4 xi = candidate(sorted, i);
-    const float same2 = R2 * (SAME_SPOT * SAME_SPOT);
+    const float same2 = R2 * (SAME_SPOT * SAME_SPOT), pile2 = R2 * (PILE_FRACTION * PILE_FRACTION);
     float3 g = (float3)(0.0f);
-    int neighbours = 0;
+    int neighbours = 0, far = 0;
     FOR_EACH_NEIGHBOUR_BIN(xi, inv_cell, bin_keys, bin_capacity, range, sorted, {
         float3 d = xi.xyz - pj.xyz;
         float d2 = dot(d, d);
@@ -27,18 +28,21 @@ inline void color_field_global(uint i, __global const float* sorted, float inv_c
             float q = R2 - d2;
             g += grad_norm * q * q * d;
             if (d2 > same2) ++neighbours;
+            if (d2 > pile2) ++far;
         }
     })
     *g_out = g;
     *n_out = neighbours;
+    *far_out = far;
 }
 
-// Thin: few neighbours (a small cluster or a filament), or no gradient and fewer than sheet_limit
-// (a sheet one particle thick: constants::kSheetNeighbourFraction).
-inline uchar particle_flags(float3 g, int neighbours, float R, float sheet_limit) {
+// Splash: few neighbours, or none beyond R / 4 (`far`: a pile). Thin: few neighbours (a small
+// cluster or a filament), or no gradient and fewer than sheet_limit (a sheet one particle thick:
+// constants::kSheetNeighbourFraction).
+inline uchar particle_flags(float3 g, int neighbours, int far, float R, float sheet_limit) {
     uchar f = 0;
     if (length(g) * R > SURFACE_GRADIENT) f |= FLAG_SURFACE;
-    if (neighbours < SPLASH_NEIGHBOURS) f |= FLAG_SPLASH | FLAG_SURFACE;
+    if (neighbours < SPLASH_NEIGHBOURS || far == 0) f |= FLAG_SPLASH | FLAG_SURFACE;
     if (neighbours < THIN_NEIGHBOURS || (!(f & FLAG_SURFACE) && (float)neighbours < sheet_limit)) f |= FLAG_THIN;
     return f;
 }
@@ -64,7 +68,8 @@ inline uchar particle_flags(float3 g, int neighbours, float R, float sheet_limit
 #define DEFINE_COLOR_BATCHES(N)                                                                                       \
     inline void color_batches##N(uint first_particle, uint n, uint n_first, __global const float* sorted,             \
                                  COLOR_CANDIDATES, __local const uint* bin_first, __local const uint* bin_count,      \
-                                 uint n_cand, float R, float R2, float same2, float grad_norm, float sheet_limit,     \
+                                 uint n_cand, float R, float R2, float same2, float pile2, float grad_norm,           \
+                                 float sheet_limit,                                                                   \
                                  __global float* gradient, __global uchar* flags) {                                   \
         const int width = N == 16 ? 4 : 3, paired = N == 16;                                                           \
         const uint lid = get_local_id(0), lsize = get_local_size(0);                                                  \
@@ -80,7 +85,7 @@ inline uchar particle_flags(float3 g, int neighbours, float R, float sheet_limit
             const float##N X = vload##N(0, px), Y = vload##N(0, py), Z = vload##N(0, pz);                              \
             const int##N C = vload##N(0, column);                                                                      \
             float##N gx = 0.0f, gy = 0.0f, gz = 0.0f;                                                                  \
-            int##N nb = 0;                                                                                             \
+            int##N nb = 0, far = 0;                                                                                    \
             for (int b = 0; b < 9 * width; ++b) {                                                                      \
                 const int col = b % width;                                                                             \
                 /* lanes whose 27 bins hold this one: all of them for one bin (a constant the loop drops) */          \
@@ -95,15 +100,17 @@ inline uchar particle_flags(float3 g, int neighbours, float R, float sheet_limit
                     const float##N w = grad_norm * q * q;                                                              \
                     gx += w * dx; gy += w * dy; gz += w * dz;                                                          \
                     nb -= in & (d2 > same2); /* true is -1 */                                                          \
+                    far -= in & (d2 > pile2);                                                                          \
                 }                                                                                                      \
             }                                                                                                          \
             float ox[N], oy[N], oz[N];                                                                                 \
-            int on[N];                                                                                                 \
+            int on[N], of[N];                                                                                          \
             vstore##N(gx, 0, ox); vstore##N(gy, 0, oy); vstore##N(gz, 0, oz); vstore##N(nb, 0, on);                  \
+            vstore##N(far, 0, of);                                                                                     \
             for (uint l = 0; l < N && first + l < n; ++l) {                                                            \
                 const float3 g = (float3)(ox[l], oy[l], oz[l]);                                                        \
                 vstore3(g, first_particle + first + l, gradient);                                                      \
-                flags[first_particle + first + l] = particle_flags(g, on[l], R, sheet_limit);                          \
+                flags[first_particle + first + l] = particle_flags(g, on[l], of[l], R, sheet_limit);                   \
             }                                                                                                          \
         }                                                                                                              \
     }
@@ -126,7 +133,7 @@ __kernel void color_field(__global const float* sorted, __global const uint* occ
                           __global const ulong* bin_keys, ulong bin_capacity, __global const uint2* range, float R,
                           float volume, float sheet_limit, __global float* gradient, __global uchar* flags, __local float4* cand,
                           __local uint* bin_first, __local uint* bin_slot, __local uint* count) {
-    const float R2 = R * R, same2 = R2 * (SAME_SPOT * SAME_SPOT);
+    const float R2 = R * R, same2 = R2 * (SAME_SPOT * SAME_SPOT), pile2 = R2 * (PILE_FRACTION * PILE_FRACTION);
     const float grad_norm = -945.0f / (32.0f * M_PI_F * pown(R, 9)) * volume;
     const uint lid = get_local_id(0), lsize = get_local_size(0);
     const uint first_bin = get_group_id(0) * per_group, end = min(first_bin + per_group, occupied_count);
@@ -157,21 +164,21 @@ __kernel void color_field(__global const float* sorted, __global const uint* occ
         if (n_cand > MAX_CANDIDATES) {
             for (uint k = lid; k < n; k += lsize) {
                 float3 g;
-                int nb;
-                color_field_global(own.x + k, sorted, inv_cell, bin_keys, bin_capacity, range, R2, grad_norm, &g, &nb);
+                int nb, far;
+                color_field_global(own.x + k, sorted, inv_cell, bin_keys, bin_capacity, range, R2, grad_norm, &g, &nb, &far);
                 vstore3(g, own.x + k, gradient);
-                flags[own.x + k] = particle_flags(g, nb, R, sheet_limit);
+                flags[own.x + k] = particle_flags(g, nb, far, R, sheet_limit);
             }
             continue;
         }
 #if VECTOR_WIDTH == 16
         if (pair) {
-            color_batches16(own.x, n, own.y, sorted, source, bin_first, bin_slot, n_cand, R, R2, same2, grad_norm, sheet_limit,
+            color_batches16(own.x, n, own.y, sorted, source, bin_first, bin_slot, n_cand, R, R2, same2, pile2, grad_norm, sheet_limit,
                             gradient, flags);
             continue;
         }
 #endif
-        color_batches8(own.x, n, n, sorted, source, bin_first, bin_slot, n_cand, R, R2, same2, grad_norm, sheet_limit, gradient,
+        color_batches8(own.x, n, n, sorted, source, bin_first, bin_slot, n_cand, R, R2, same2, pile2, grad_norm, sheet_limit, gradient,
                        flags);
     }
 }

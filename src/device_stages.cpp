@@ -24,11 +24,12 @@ namespace {
 using kernels::Groups;
 using kernels::Items;
 
-/// A device buffer (role `what`) holding a copy of `data`: the counterpart of read_buffer.
+/// A device buffer (role `what`) holding a copy of `data`: the counterpart of read_buffer. Empty
+/// data gives a buffer with nothing written (a write of 0 bytes is CL_INVALID_VALUE).
 template <class T>
 DeviceBuffer upload(OpenCLRuntime& rt, const std::vector<T>& data, const char* what) {
     DeviceBuffer buf = rt.buffer(data.size() * sizeof(T), what);
-    rt.queue().enqueueWriteBuffer(buf, CL_TRUE, 0, data.size() * sizeof(T), data.data());
+    if (!data.empty()) rt.queue().enqueueWriteBuffer(buf, CL_TRUE, 0, data.size() * sizeof(T), data.data());
     return buf;
 }
 

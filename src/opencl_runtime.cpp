@@ -106,7 +106,8 @@ std::string build_options(std::size_t max_candidates, bool cpu, int vector_width
     o << std::showpoint;  // a float constant of 1 or 0 still reads as an OpenCL float literal ("1.00000000f")
     o << "-cl-std=CL1.2 -DSERIAL_GATHER=" << (cpu ? 1 : 0) << " -DVECTOR_WIDTH=" << vector_width << " -DMAX_CANDIDATES=" << max_candidates << " -DSURFACE_GRADIENT=" << constants::kSurfaceGradient << "f"
       << " -DSPLASH_NEIGHBOURS=" << constants::kSplashNeighbours
-      << " -DTHIN_NEIGHBOURS=" << constants::kThinNeighbours << " -DSAME_SPOT=" << constants::kSameSpot << "f" << " -DEV_LOW=" << constants::kEvLow << "f"
+      << " -DTHIN_NEIGHBOURS=" << constants::kThinNeighbours << " -DSAME_SPOT=" << constants::kSameSpot << "f"
+      << " -DPILE_FRACTION=" << constants::kPileFraction << "f" << " -DEV_LOW=" << constants::kEvLow << "f"
       << " -DEV_HIGH=" << constants::kEvHigh << "f" << " -DSUPPORT_CUT=" << constants::kSupportCut << "f";
     return o.str();
 }

@@ -283,6 +283,47 @@ TEST_CASE("colour field, surface and splash particles match the C++ reference", 
     CHECK(block_thin == 0);
 }
 
+TEST_CASE("a pile of particles within a hundredth of r is splash on the device as in the reference", "[device][color_field]") {
+    // Its particles see each other almost on the spot: next to no colour-field gradient, and more
+    // than enough neighbours for the splash count. Without the pile rule (constants::kPileFraction)
+    // they were neither surface nor splash, and the frame had no surface cell at all.
+    auto& rt = runtime();
+    const float r = 0.025f, R = 4 * r;
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> spread(0.0f, 0.01f * r);
+    std::vector<glm::vec3> x;
+    for (int i = 0; i < 160; ++i) x.push_back(glm::vec3(1.0f) + glm::vec3(spread(rng), spread(rng), spread(rng)));
+    const BinnedParticles b = bin_particles(rt, &x[0].x, x.size(), glm::dvec3(0.0), R);
+    const ParticleClasses c = classify_particles(rt, b, r, R);
+    const auto flags = read_buffer<cl_uchar>(rt, c.flags, x.size());
+    const auto ref = reference::color_field(x, r, R);
+    for (std::size_t i = 0; i < x.size(); ++i) {
+        REQUIRE(ref.neighbours[i] >= constants::kSplashNeighbours);  // the neighbour count alone would not do
+        REQUIRE(ref.splash[i]);
+        REQUIRE((flags[i] & contract::kFlagSplash) != 0);
+        REQUIRE((flags[i] & contract::kFlagSurface) != 0);
+    }
+    CHECK(c.splash == x.size());
+}
+
+TEST_CASE("surface cells of particles without a surface particle are none and no error", "[device][surface_cells]") {
+    // A safety net behind the pile rule: no surface particle means no coarse cell, and the stage
+    // must give back an empty list (it uploaded the empty Morton list: CL_INVALID_VALUE).
+    auto& rt = runtime();
+    const float r = 0.025f, R = 4 * r;
+    const std::vector<glm::vec3> x = test::lattice_points(glm::ivec3(6), glm::vec3(1.0f), 2 * r);
+    const BinnedParticles b = bin_particles(rt, &x[0].x, x.size(), glm::dvec3(0.0), R);
+    for (int forced : {0, 2}) {
+        ParticleClasses c = classify_particles(rt, b, r, R);
+        REQUIRE(c.surface > 0);
+        rt.queue().enqueueFillBuffer(c.flags, cl_uchar{0}, 0, x.size());  // no particle is surface
+        c.surface = c.splash = 0;
+        const SurfaceCells sc = surface_cells(rt, b, c, r, R, 4 * r, 2.0f, forced);
+        CHECK(sc.cells.empty());
+        CHECK(sc.curvature.empty());
+    }
+}
+
 TEST_CASE("colour field is bit-identical with bins paired in 16-wide vectors and alone in 8-wide ones", "[device][color_field][determinism]") {
     // VECTOR_WIDTH 16 takes a bin and its +x neighbour in one vector over the 4 x 3 x 3 bins
     // around both; each lane must still add exactly its own 27 bins' candidates in their order.

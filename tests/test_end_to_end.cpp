@@ -356,6 +356,27 @@ TEST_CASE("a sheet one particle thick stays one piece in adaptive mode, as at un
     }
 }
 
+TEST_CASE("a pile of particles a hundredth of r across meshes as one closed blob in both modes", "[e2e][robustness]") {
+    // A radius far too large for the particles (a unit mix-up) makes the frame such a pile. It
+    // failed in adaptive mode ("clEnqueueWriteBuffer returned CL_INVALID_VALUE") and gave an empty
+    // mesh at uniform r: its particles were neither surface nor splash (constants::kPileFraction).
+    const float r = 0.025f;
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<float> spread(0.0f, 0.01f * r);
+    std::vector<float> pile;
+    for (int i = 0; i < 160; ++i) pile.insert(pile.end(), {2.0f + spread(rng), 3.0f + spread(rng), 4.0f + spread(rng)});
+    for (Mode mode : {Mode::Adaptive, Mode::Uniform}) {
+        INFO((mode == Mode::Adaptive ? "adaptive" : "uniform r"));
+        const Mesh m = shared_reconstructor().reconstruct(pile.data(), pile.size() / 3, params(r, mode, 1.0f));
+        require_closed(m, "pile");
+        REQUIRE(m.triangle_count() > 0);
+        CHECK(mesh_components(m).count == 1);
+        for (std::size_t v = 0; v < m.vertex_count(); ++v)  // around the pile, within the kernel's reach
+            CHECK(glm::distance(glm::vec3(m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]),
+                                glm::vec3(2.0f, 3.0f, 4.0f)) < 4 * r);
+    }
+}
+
 TEST_CASE("a block made on a lattice keeps its edges whichever parity of r its particle layers take", "[e2e][levels]") {
     // A fluid made on a lattice of spacing 2r (a simulator's first frame, a generated scene) has
     // its faces r beyond its outer layers. On the level-2 planes (layers on one parity of r) the 2r
