@@ -44,16 +44,19 @@ TriangleGrid::TriangleGrid(const Mesh& mesh, const std::vector<std::uint8_t>& de
         [](const Bounds& a, const Bounds& b) { return Bounds{glm::min(a.low, b.low), glm::max(a.high, b.high), std::max(a.extent, b.extent)}; });
     const glm::vec3 low = all.high.x >= all.low.x ? all.low : glm::vec3(0.0f), high = all.high.x >= all.low.x ? all.high : glm::vec3(0.0f);
     const float extent = all.extent;
-    // Cells of the largest extent, grown by factors of 1.5 while the grid over the mesh's box
-    // would have more than max(4 triangles, 2^20) cells.
+    // Cells of the largest extent; where the grid over the mesh's box would have more than
+    // max(4 triangles, 2^20) cells, its longest axis is halved until it has no more: the grid
+    // wraps around along the axes it does not span (see the header).
     origin_ = glm::dvec3(low);
     reach_ = double(extent);
     cell_ = extent > 0.0f && std::isfinite(extent) ? double(extent) : 1.0;
-    const glm::dvec3 size = glm::dvec3(high) - origin_;
     const double limit = std::max(4.0 * double(nt), double(1 << 20));
-    auto cells = [&](double side) { return glm::floor(size / side) + 1.0; };
-    while (cells(cell_).x * cells(cell_).y * cells(cell_).z > limit) cell_ *= 1.5;
-    dims_ = glm::ivec3(cells(cell_));
+    glm::dvec3 dims = glm::min(glm::floor((glm::dvec3(high) - origin_) / cell_) + 1.0, glm::dvec3(double(1 << 30)));
+    while (dims.x * dims.y * dims.z > limit) {
+        const int a = dims.x >= dims.y && dims.x >= dims.z ? 0 : dims.y >= dims.z ? 1 : 2;
+        dims[a] = std::ceil(dims[a] / 2.0);
+    }
+    dims_ = glm::ivec3(dims);
     const std::size_t count = std::size_t(dims_.x) * std::size_t(dims_.y) * std::size_t(dims_.z);
 
     // Counting sort by cell; the triangles' order within a cell is theirs.
@@ -91,20 +94,27 @@ TriangleGrid::TriangleGrid(const Mesh& mesh, const std::vector<std::uint8_t>& de
     moved_in_row_.assign(std::size_t(dims_.y) * std::size_t(dims_.z), 0);
 }
 
-glm::ivec3 TriangleGrid::cell(glm::dvec3 p) const {
-    const glm::dvec3 c = glm::clamp(glm::floor((p - origin_) / cell_), glm::dvec3(0.0), glm::dvec3(dims_ - 1));
-    return glm::ivec3(c);
+glm::i64vec3 TriangleGrid::raw_cell(glm::dvec3 p) const {
+    constexpr double kFar = double(std::int64_t(1) << 40);  // beyond any mesh's extent in cells
+    return glm::i64vec3(glm::clamp(glm::floor((p - origin_) / cell_), glm::dvec3(-kFar), glm::dvec3(kFar)));
 }
 
-void TriangleGrid::push(Local& list, std::uint32_t t, std::size_t c) {
+glm::ivec3 TriangleGrid::wrap(glm::i64vec3 c) const {
+    const glm::i64vec3 d(dims_);
+    return glm::ivec3(((c % d) + d) % d);
+}
+
+void TriangleGrid::push(Local& list, std::uint32_t t, std::size_t c, glm::vec3 lo, glm::vec3 hi) {
     list.tri_.push_back(t);
     list.cell_.push_back(std::uint32_t(c));
+    list.lo_.push_back(lo);
+    list.hi_.push_back(hi);
     list.next_.push_back(list.head(c));
     list.set_head(c, std::uint32_t(list.tri_.size() - 1));
 }
 
-void TriangleGrid::relist_in_grid(std::uint32_t t, std::size_t c) {
-    push(moved_, t, c);
+void TriangleGrid::relist_in_grid(std::uint32_t t, std::size_t c, glm::vec3 lo, glm::vec3 hi) {
+    push(moved_, t, c, lo, hi);
     ++moved_in_row_[c / std::size_t(dims_.x)];
 }
 
@@ -112,14 +122,15 @@ void TriangleGrid::relist(std::uint32_t t, glm::dvec3 lo, glm::dvec3 hi, Local* 
     const glm::ivec3 k = cell(lo);
     const std::size_t c = index(k.x, k.y, k.z);
     relisted_[t] = 1;
+    const glm::vec3 lof(lo), hif(hi);  // float corners: their box is exact in floats
     if (!local) {
-        relist_in_grid(t, c);
+        relist_in_grid(t, c, lof, hif);
         const glm::dvec3 d = hi - lo;
         reach_ = std::max(reach_, std::max(d.x, std::max(d.y, d.z)));
         return;
     }
     // A Local's triangles must keep within reach(): queries of other threads use it unchanged.
-    push(*local, t, c);
+    push(*local, t, c, lof, hif);
 }
 
 void TriangleGrid::Local::set_head(std::size_t cell, std::uint32_t entry) {
@@ -141,12 +152,14 @@ void TriangleGrid::Local::set_head(std::size_t cell, std::uint32_t entry) {
 }
 
 void TriangleGrid::adopt(Local& local) {
-    for (std::size_t k = 0; k < local.tri_.size(); ++k) relist_in_grid(local.tri_[k], local.cell_[k]);
+    for (std::size_t k = 0; k < local.tri_.size(); ++k) relist_in_grid(local.tri_[k], local.cell_[k], local.lo_[k], local.hi_[k]);
     std::fill(local.cells_.begin(), local.cells_.end(), 0u);  // left clean for its next region
     local.used_ = 0;
     local.tri_.clear();
     local.next_.clear();
     local.cell_.clear();
+    local.lo_.clear();
+    local.hi_.clear();
 }
 
 }  // namespace trilevel

@@ -45,11 +45,13 @@ void box_of(const Mesh& m, std::uint32_t t, glm::dvec3& lo, glm::dvec3& hi) {
     }
 }
 
-// Every query: the reported triangles hold each overlapping live one, once, and no dead one.
-void check_queries(TriangleGrid& grid, const Soup& s, std::mt19937& rng, TriangleGrid::Local& local) {
+// Every query (boxes around the unit cube at `at`): the reported triangles hold each overlapping
+// live one, once, and no dead one.
+void check_queries(TriangleGrid& grid, const Soup& s, std::mt19937& rng, TriangleGrid::Local& local,
+                   glm::dvec3 at = glm::dvec3(0.0)) {
     std::uniform_real_distribution<double> unit(-0.1, 1.1);
     for (int q = 0; q < 200; ++q) {
-        glm::dvec3 a(unit(rng), unit(rng), unit(rng)), b = a + 0.05 * glm::dvec3(unit(rng), unit(rng), unit(rng));
+        glm::dvec3 a = at + glm::dvec3(unit(rng), unit(rng), unit(rng)), b = a + 0.05 * glm::dvec3(unit(rng), unit(rng), unit(rng));
         const glm::dvec3 lo = glm::min(a, b), hi = glm::max(a, b);
         std::map<std::uint32_t, int> seen;
         grid.for_each_near(lo, hi, local, [&](std::uint32_t t) { ++seen[t]; });
@@ -105,4 +107,34 @@ TEST_CASE("triangle grid finds every triangle overlapping a box, once, also afte
         check_queries(grid, s, rng, scratch);
         check_queries(grid, s, rng, local);  // emptied, and clean for its next use
     }
+}
+
+TEST_CASE("triangle grid of two clusters far apart keeps cells of its largest triangle", "[mesh]") {
+    // A frame of two far-apart groups (a split domain) is such a mesh. Cells grown until the grid
+    // over the whole box fitted were a cluster wide there: each query read most of a cluster, and
+    // the sliver cleanup of two clusters 40 units apart took 127 s (each alone 0.5 s). The grid now
+    // wraps around instead (cells far apart share a slot) and keeps its cells.
+    Soup s = random_soup(3, 3000, 0.02f);
+    const glm::dvec3 far(1e4, -2e4, 3e4);
+    Soup b = random_soup(4, 3000, 0.02f);
+    const auto first = std::uint32_t(s.mesh.vertex_count());
+    for (std::size_t v = 0; v < b.mesh.vertex_count(); ++v)
+        for (int k = 0; k < 3; ++k) s.mesh.positions.push_back(float(b.mesh.positions[3 * v + k] + far[k]));
+    for (std::uint32_t v : b.mesh.triangles) s.mesh.triangles.push_back(first + v);
+    s.dead.insert(s.dead.end(), b.dead.begin(), b.dead.end());
+    TriangleGrid grid(s.mesh, s.dead);
+    CHECK(grid.cell_side() < 0.05);  // the largest triangle's extent (0.02 * sqrt 3 at most), not ~100 units
+    std::mt19937 rng(5);
+    TriangleGrid::Local local;
+    check_queries(grid, s, rng, local);
+    check_queries(grid, s, rng, local, far);
+    // Relisted near one cluster: found there, and never reported by queries at the other.
+    for (std::uint32_t t = 0; t < 3000; t += 7) {
+        if (s.dead[t]) continue;
+        glm::dvec3 lo, hi;
+        box_of(s.mesh, t, lo, hi);
+        grid.relist(t, lo, hi, &local);
+    }
+    check_queries(grid, s, rng, local);
+    check_queries(grid, s, rng, local, far);
 }
