@@ -45,12 +45,12 @@ TriangleGrid::TriangleGrid(const Mesh& mesh, const std::vector<std::uint8_t>& de
     const glm::vec3 low = all.high.x >= all.low.x ? all.low : glm::vec3(0.0f), high = all.high.x >= all.low.x ? all.high : glm::vec3(0.0f);
     const float extent = all.extent;
     // Cells of the largest extent; where the grid over the mesh's box would have more than
-    // max(4 triangles, 2^20) cells, its longest axis is halved until it has no more: the grid
+    // max(triangles, 2^20) cells, its longest axis is halved until it has no more: the grid
     // wraps around along the axes it does not span (see the header).
     origin_ = glm::dvec3(low);
     reach_ = double(extent);
     cell_ = extent > 0.0f && std::isfinite(extent) ? double(extent) : 1.0;
-    const double limit = std::max(4.0 * double(nt), double(1 << 20));
+    const double limit = std::max(double(nt), double(1 << 20));
     glm::dvec3 dims = glm::min(glm::floor((glm::dvec3(high) - origin_) / cell_) + 1.0, glm::dvec3(double(1 << 30)));
     while (dims.x * dims.y * dims.z > limit) {
         const int a = dims.x >= dims.y && dims.x >= dims.z ? 0 : dims.y >= dims.z ? 1 : 2;
