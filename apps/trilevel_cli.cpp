@@ -154,6 +154,8 @@ trilevel::Params make_params(const ReconstructArgs& a) {
     trilevel::Params p;
     p.particle_radius = positive("radius (-r)", a.radius);
     p.kernel_radius = positive("kernel radius (--kernel-radius)", a.kernel_radius);
+    if (p.kernel_radius < 1.0f || p.kernel_radius > 16.0f)  // the library's range, as a usage error with the text given
+        throw UsageError("kernel radius (--kernel-radius) must lie in [1, 16] particle radii, got '" + a.kernel_radius + "'");
     if (a.mode == "adaptive") p.mode = trilevel::Mode::Adaptive;
     else if (a.mode == "uniform") p.mode = trilevel::Mode::Uniform;
     else throw UsageError("--mode must be adaptive or uniform, got '" + a.mode + "'");
@@ -164,7 +166,8 @@ trilevel::Params make_params(const ReconstructArgs& a) {
     if (!a.threshold.empty()) p.curvature_threshold = positive("curvature threshold (--curvature-threshold)", a.threshold);
     if (!a.level2_tolerance.empty()) {
         const double t = parse_number("--level2-tolerance", a.level2_tolerance);
-        if (!(t >= 0 && t < 1e6)) throw UsageError("--level2-tolerance must be >= 0 (in r; 0 = off), got '" + a.level2_tolerance + "'");
+        if (!(t >= 0 && t < 1e6))
+            throw UsageError("--level2-tolerance must be >= 0 and below 1e6 (in r; 0 = off), got '" + a.level2_tolerance + "'");
         p.level2_tolerance = static_cast<float>(t);
     }
     if (a.crack_closing == "collapse") p.crack_closing = trilevel::CrackClosing::Collapse;
