@@ -37,8 +37,11 @@ void require_distinct_outputs(const std::string& input, const std::string& outpu
 bool is_sequence_pattern(const std::string& pattern) { return pattern.find("{}") != std::string::npos; }
 
 std::string frame_path(const std::string& pattern, const std::string& number) {
-    const auto at = pattern.find("{}");
-    return at == std::string::npos ? pattern : pattern.substr(0, at) + number + pattern.substr(at + 2);
+    std::string path;
+    std::size_t from = 0;
+    for (auto at = pattern.find("{}"); at != std::string::npos; from = at + 2, at = pattern.find("{}", from))
+        path += pattern.substr(from, at - from) + number;
+    return path + pattern.substr(from);
 }
 
 std::string padded_frame(std::uint64_t frame, int width) {

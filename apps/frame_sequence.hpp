@@ -34,7 +34,7 @@ void require_distinct_outputs(const std::string& input, const std::string& outpu
 /// Whether `pattern` names a frame sequence (holds "{}").
 bool is_sequence_pattern(const std::string& pattern);
 
-/// `pattern` with its "{}" replaced by `number` (as written, padding kept); unchanged without "{}".
+/// `pattern` with every "{}" replaced by `number` (as written, padding kept); unchanged without "{}".
 std::string frame_path(const std::string& pattern, const std::string& number);
 
 /// `frame` written with at least `width` digits, zero-padded.

@@ -77,6 +77,10 @@ TEST_CASE("CLI sequences: any zero padding, numeric order, outputs named like th
     r = run_cli(tmp, "reconstruct " + in + out + " --start 8");
     REQUIRE(r.code == 0);
     CHECK(frames_printed(r.out) == std::vector<std::string>{"10"});
+    // Every "{}" of an output name takes the number (the second stayed "{}" before).
+    r = run_cli(tmp, "reconstruct " + in + " -o '" + tmp.file("m_{}_of_{}.ply") + "' -r 0.025 --start 8");
+    REQUIRE(r.code == 0);
+    CHECK(closed_mesh(tmp.file("m_10_of_10.ply")));
 }
 
 TEST_CASE("CLI sequences: --skip-existing resumes, a failing frame is reported and the run goes on", "[cli][sequence]") {
