@@ -44,14 +44,19 @@ TriangleGrid::TriangleGrid(const Mesh& mesh, const std::vector<std::uint8_t>& de
         [](const Bounds& a, const Bounds& b) { return Bounds{glm::min(a.low, b.low), glm::max(a.high, b.high), std::max(a.extent, b.extent)}; });
     const glm::vec3 low = all.high.x >= all.low.x ? all.low : glm::vec3(0.0f), high = all.high.x >= all.low.x ? all.high : glm::vec3(0.0f);
     const float extent = all.extent;
-    // Cells of the largest extent; where the grid over the mesh's box would have more than
-    // max(triangles, 2^20) cells, its longest axis is halved until it has no more: the grid
-    // wraps around along the axes it does not span (see the header).
+    // Cells of the largest extent, grown by factors of 1.5 (three at most) while the grid over the
+    // mesh's box would have more than max(4 triangles, 2^20) cells; where it still would, its
+    // longest axis is halved until it has no more: the grid wraps around along the axes it does
+    // not span (see the header). A frame's mesh needs at most a growth or two (x64: 2.25 times
+    // the largest triangle, whose queries then read fewer cells than wrapped ones).
     origin_ = glm::dvec3(low);
     reach_ = double(extent);
     cell_ = extent > 0.0f && std::isfinite(extent) ? double(extent) : 1.0;
-    const double limit = std::max(double(nt), double(1 << 20));
-    glm::dvec3 dims = glm::min(glm::floor((glm::dvec3(high) - origin_) / cell_) + 1.0, glm::dvec3(double(1 << 30)));
+    const glm::dvec3 size = glm::dvec3(high) - origin_;
+    const double limit = std::max(4.0 * double(nt), double(1 << 20));
+    auto cells = [&](double side) { return glm::min(glm::floor(size / side) + 1.0, glm::dvec3(double(1 << 30))); };
+    for (int growth = 0; growth < 3 && cells(cell_).x * cells(cell_).y * cells(cell_).z > limit; ++growth) cell_ *= 1.5;
+    glm::dvec3 dims = cells(cell_);
     while (dims.x * dims.y * dims.z > limit) {
         const int a = dims.x >= dims.y && dims.x >= dims.z ? 0 : dims.y >= dims.z ? 1 : 2;
         dims[a] = std::ceil(dims[a] / 2.0);

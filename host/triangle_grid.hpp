@@ -4,10 +4,11 @@
 // triangles overlapping a box lie in the cells from the box's low corner less one triangle extent
 // to its high corner: 3 x 3 x 3 cells for a box of one cell. The cells are dense and in x-rows,
 // so such a query reads 9 contiguous runs of entries, each entry's box beside it. Where the grid
-// over the mesh's box would have too many cells, it wraps around (cell coordinates modulo the
-// grid's size along each axis: cells far apart share a slot, whose extra entries the box test
-// skips). Larger cells instead made every query of a splayed mesh read most of it: two clusters
-// 40 units apart took 127 s in the sliver cleanup, each alone 0.5 s.
+// over the mesh's box would have too many cells, the cells grow a little, then the grid wraps
+// around (cell coordinates modulo the grid's size along each axis: cells far apart share a slot,
+// whose extra entries the box test skips). Cells grown without bound made every query of a
+// splayed mesh read most of it: two clusters 40 units apart took 127 s in the sliver cleanup,
+// each alone 0.5 s.
 //
 // Triangles whose corners change are listed again in per-cell lists: the grid's own, or a
 // Local's, where several threads move triangles at once in regions far apart (each query then
