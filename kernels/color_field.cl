@@ -7,7 +7,8 @@
 // A neighbour closer than SAME_SPOT * R is the same spot, not a neighbour, for the splash and thin
 // counts: particles stacked on one point have no colour-field gradient at all, so without this a
 // pile of them would be neither surface nor splash and vanish from the mesh. A pile spread a little
-// (every neighbour within R / 4, PILE_FRACTION) has next to no gradient either: it is splash too.
+// (its neighbours within R / 4 of it in the root mean square, PILE_FRACTION) has next to no
+// gradient either: it is splash too.
 // Uses: contract.h (FLAG_*), hash_table.cl, particle_binning.cl (gather_candidates, bin_ranges, FOR_EACH_NEIGHBOUR_BIN).
 
 // Writes FLAG_SURFACE, FLAG_SPLASH and FLAG_THIN (contract.h) per particle.
@@ -16,33 +17,39 @@
 // memory: for bins whose candidates do not fit in local memory.
 inline void color_field_global(uint i, __global const float* sorted, float inv_cell, __global const ulong* bin_keys,
                                ulong bin_capacity, __global const uint2* range, float R2, float grad_norm,
-                               float3* g_out, int* n_out, int* far_out) {
+                               float3* g_out, int* n_out, float* closeness_out) {
     const float4 xi = candidate(sorted, i);
-    const float same2 = R2 * (SAME_SPOT * SAME_SPOT), pile2 = R2 * (PILE_FRACTION * PILE_FRACTION);
+    const float same2 = R2 * (SAME_SPOT * SAME_SPOT);
     float3 g = (float3)(0.0f);
-    int neighbours = 0, far = 0;
+    int neighbours = 0;
+    float closeness = 0.0f;  // sum of R^2 - d^2 over the particle itself and its neighbours, in candidate order
     FOR_EACH_NEIGHBOUR_BIN(xi, inv_cell, bin_keys, bin_capacity, range, sorted, {
         float3 d = xi.xyz - pj.xyz;
         float d2 = dot(d, d);
-        if (d2 < R2 && j != i) {
+        if (d2 < R2) {
             float q = R2 - d2;
-            g += grad_norm * q * q * d;
-            if (d2 > same2) ++neighbours;
-            if (d2 > pile2) ++far;
+            closeness += q;
+            if (j != i) {
+                g += grad_norm * q * q * d;
+                if (d2 > same2) ++neighbours;
+            }
         }
     })
     *g_out = g;
     *n_out = neighbours;
-    *far_out = far;
+    *closeness_out = closeness;
 }
 
-// Splash: few neighbours, or none beyond R / 4 (`far`: a pile). Thin: few neighbours (a small
-// cluster or a filament), or no gradient and fewer than sheet_limit (a sheet one particle thick:
+// Splash: few neighbours, or a pile: `closeness`, the sum of R^2 - d^2 over the particle and its
+// neighbours within R, is what neighbours + 1 points within R / 4 of it in the root mean square
+// would give at least (the same-spot ones only add to it). Thin: few neighbours (a small cluster
+// or a filament), or no gradient and fewer than sheet_limit (a sheet one particle thick:
 // constants::kSheetNeighbourFraction).
-inline uchar particle_flags(float3 g, int neighbours, int far, float R, float sheet_limit) {
+inline uchar particle_flags(float3 g, int neighbours, float closeness, float R, float sheet_limit) {
     uchar f = 0;
+    const float pile = (float)(neighbours + 1) * (1.0f - PILE_FRACTION * PILE_FRACTION) * (R * R);
     if (length(g) * R > SURFACE_GRADIENT) f |= FLAG_SURFACE;
-    if (neighbours < SPLASH_NEIGHBOURS || far == 0) f |= FLAG_SPLASH | FLAG_SURFACE;
+    if (neighbours < SPLASH_NEIGHBOURS || closeness >= pile) f |= FLAG_SPLASH | FLAG_SURFACE;
     if (neighbours < THIN_NEIGHBOURS || (!(f & FLAG_SURFACE) && (float)neighbours < sheet_limit)) f |= FLAG_THIN;
     return f;
 }
@@ -68,7 +75,7 @@ inline uchar particle_flags(float3 g, int neighbours, int far, float R, float sh
 #define DEFINE_COLOR_BATCHES(N)                                                                                       \
     inline void color_batches##N(uint first_particle, uint n, uint n_first, __global const float* sorted,             \
                                  COLOR_CANDIDATES, __local const uint* bin_first, __local const uint* bin_count,      \
-                                 uint n_cand, float R, float R2, float same2, float pile2, float grad_norm,           \
+                                 uint n_cand, float R, float R2, float same2, float grad_norm,                        \
                                  float sheet_limit,                                                                   \
                                  __global float* gradient, __global uchar* flags) {                                   \
         const int width = N == 16 ? 4 : 3, paired = N == 16;                                                           \
@@ -85,7 +92,8 @@ inline uchar particle_flags(float3 g, int neighbours, int far, float R, float sh
             const float##N X = vload##N(0, px), Y = vload##N(0, py), Z = vload##N(0, pz);                              \
             const int##N C = vload##N(0, column);                                                                      \
             float##N gx = 0.0f, gy = 0.0f, gz = 0.0f;                                                                  \
-            int##N nb = 0, far = 0;                                                                                    \
+            int##N nb = 0;                                                                                             \
+            float##N closeness = 0.0f; /* the particle itself is a candidate: it adds R^2 */                        \
             for (int b = 0; b < 9 * width; ++b) {                                                                      \
                 const int col = b % width;                                                                             \
                 /* lanes whose 27 bins hold this one: all of them for one bin (a constant the loop drops) */          \
@@ -100,17 +108,18 @@ inline uchar particle_flags(float3 g, int neighbours, int far, float R, float sh
                     const float##N w = grad_norm * q * q;                                                              \
                     gx += w * dx; gy += w * dy; gz += w * dz;                                                          \
                     nb -= in & (d2 > same2); /* true is -1 */                                                          \
-                    far -= in & (d2 > pile2);                                                                          \
+                    closeness += q;                                                                                    \
                 }                                                                                                      \
             }                                                                                                          \
             float ox[N], oy[N], oz[N];                                                                                 \
-            int on[N], of[N];                                                                                          \
+            int on[N];                                                                                                 \
+            float oq[N];                                                                                               \
             vstore##N(gx, 0, ox); vstore##N(gy, 0, oy); vstore##N(gz, 0, oz); vstore##N(nb, 0, on);                  \
-            vstore##N(far, 0, of);                                                                                     \
+            vstore##N(closeness, 0, oq);                                                                               \
             for (uint l = 0; l < N && first + l < n; ++l) {                                                            \
                 const float3 g = (float3)(ox[l], oy[l], oz[l]);                                                        \
                 vstore3(g, first_particle + first + l, gradient);                                                      \
-                flags[first_particle + first + l] = particle_flags(g, on[l], of[l], R, sheet_limit);                   \
+                flags[first_particle + first + l] = particle_flags(g, on[l], oq[l], R, sheet_limit);                   \
             }                                                                                                          \
         }                                                                                                              \
     }
@@ -133,7 +142,7 @@ __kernel void color_field(__global const float* sorted, __global const uint* occ
                           __global const ulong* bin_keys, ulong bin_capacity, __global const uint2* range, float R,
                           float volume, float sheet_limit, __global float* gradient, __global uchar* flags, __local float4* cand,
                           __local uint* bin_first, __local uint* bin_slot, __local uint* count) {
-    const float R2 = R * R, same2 = R2 * (SAME_SPOT * SAME_SPOT), pile2 = R2 * (PILE_FRACTION * PILE_FRACTION);
+    const float R2 = R * R, same2 = R2 * (SAME_SPOT * SAME_SPOT);
     const float grad_norm = -945.0f / (32.0f * M_PI_F * pown(R, 9)) * volume;
     const uint lid = get_local_id(0), lsize = get_local_size(0);
     const uint first_bin = get_group_id(0) * per_group, end = min(first_bin + per_group, occupied_count);
@@ -164,21 +173,22 @@ __kernel void color_field(__global const float* sorted, __global const uint* occ
         if (n_cand > MAX_CANDIDATES) {
             for (uint k = lid; k < n; k += lsize) {
                 float3 g;
-                int nb, far;
-                color_field_global(own.x + k, sorted, inv_cell, bin_keys, bin_capacity, range, R2, grad_norm, &g, &nb, &far);
+                int nb;
+                float closeness;
+                color_field_global(own.x + k, sorted, inv_cell, bin_keys, bin_capacity, range, R2, grad_norm, &g, &nb, &closeness);
                 vstore3(g, own.x + k, gradient);
-                flags[own.x + k] = particle_flags(g, nb, far, R, sheet_limit);
+                flags[own.x + k] = particle_flags(g, nb, closeness, R, sheet_limit);
             }
             continue;
         }
 #if VECTOR_WIDTH == 16
         if (pair) {
-            color_batches16(own.x, n, own.y, sorted, source, bin_first, bin_slot, n_cand, R, R2, same2, pile2, grad_norm, sheet_limit,
+            color_batches16(own.x, n, own.y, sorted, source, bin_first, bin_slot, n_cand, R, R2, same2, grad_norm, sheet_limit,
                             gradient, flags);
             continue;
         }
 #endif
-        color_batches8(own.x, n, n, sorted, source, bin_first, bin_slot, n_cand, R, R2, same2, pile2, grad_norm, sheet_limit, gradient,
+        color_batches8(own.x, n, n, sorted, source, bin_first, bin_slot, n_cand, R, R2, same2, grad_norm, sheet_limit, gradient,
                        flags);
     }
 }

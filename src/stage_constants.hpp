@@ -41,11 +41,13 @@ inline float sheet_neighbour_limit(float R, float volume) {
 /// would otherwise be neither surface nor splash and vanish from the mesh; 1/4096 R (0.001 r at
 /// R = 4r) is far below any spacing real frames show (the closest pair in the shared frames: 0.005 r).
 constexpr float kSameSpot = 1.0f / 4096.0f;
-/// A particle with no neighbour beyond kPileFraction * R (r at R = 4r) is splash: its neighbourhood
-/// is one spot at the kernel's scale. A pile spread that little has next to no colour-field
-/// gradient (its particles see each other almost on the spot), so it would be neither surface
-/// nor splash: 160 particles within 0.01 r gave no surface cell at all. Real fluid never has 3 or
-/// more neighbours all within r of a particle (rest spacing 2r): no frame changes.
+/// A particle whose neighbours within R lie within kPileFraction * R of it (r at R = 4r) in the root
+/// mean square, itself counted, is splash: its neighbourhood is one spot at the kernel's scale.
+/// Tested as sum(R^2 - d^2) >= (neighbours + 1) (1 - kPileFraction^2) R^2 over the particle and
+/// its neighbours (one add a candidate; same-spot neighbours only add to the sum). A pile spread
+/// that little has next to no colour-field gradient (its particles see each other almost on the
+/// spot), so it would be neither surface nor splash: 160 particles within 0.01 r gave no surface
+/// cell at all. Real fluid has its neighbours spread over R (rest spacing 2r): no frame changes.
 constexpr float kPileFraction = 0.25f;
 
 /// Surface cells: coarse cells overlapping the box x_i ± kSurfaceBoxHalf * r around each surface or

@@ -61,18 +61,20 @@ ParticleFlags color_field(const std::vector<glm::vec3>& x, float r, float R) {
     parallel_over(n, [&](std::size_t i) {
         double c = poly6(0.0, R);  // the particle itself
         glm::dvec3 g(0.0);
-        int count = 0, far = 0;
+        int count = 0;
+        double closeness = double(R) * R;  // the particle itself
         grid.for_each_neighbour(x[i], [&](int j, glm::vec3 xj, double d2) {
             if (std::size_t(j) == i) return;
             if (d2 > double(constants::kSameSpot) * constants::kSameSpot * R * R) ++count;  // else the same spot
-            if (d2 > double(constants::kPileFraction) * constants::kPileFraction * R * R) ++far;  // else a pile
+            closeness += double(R) * R - d2;
             c += poly6(d2, R);
             g += poly6_gradient_factor(d2, R) * glm::dvec3(x[i] - xj);
         });
         out.color[i] = float(V * c);
         out.gradient[i] = glm::vec3(V * g);
         out.neighbours[i] = count;
-        out.splash[i] = count < constants::kSplashNeighbours || far == 0;
+        const double pile = (count + 1) * (1.0 - double(constants::kPileFraction) * constants::kPileFraction) * R * R;
+        out.splash[i] = count < constants::kSplashNeighbours || closeness >= pile;  // few neighbours, or a pile
         out.surface[i] = out.splash[i] || V * glm::length(g) * R > constants::kSurfaceGradient;
         out.thin[i] = count < constants::kThinNeighbours || (!out.surface[i] && float(count) < sheet_limit);
     });
