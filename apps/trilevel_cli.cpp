@@ -44,7 +44,10 @@ using trilevel::cli::UsageError;  // bad option values (exit code 2)
 double parse_number(const std::string& name, const std::string& text) {
     char* end = nullptr;
     const double v = std::strtod(text.c_str(), &end);
-    if (text.empty() || end != text.c_str() + text.size()) throw UsageError(name + " must be a number, got '" + text + "'");
+    // strtod also reads hexadecimal ("0x10" as 16) and skips leading blanks: decimal text only
+    const bool decimal = text.find_first_of("xX \t\n") == std::string::npos;
+    if (text.empty() || !decimal || end != text.c_str() + text.size())
+        throw UsageError(name + " must be a number, got '" + text + "'");
     return v;
 }
 

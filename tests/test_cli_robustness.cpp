@@ -113,6 +113,7 @@ TEST_CASE("CLI: absurd parameters are one line naming the parameter, and the old
         {{"-r", "0.025", "--kernel-radius", "0"}, "kernel radius (--kernel-radius) must be > 0"},
         {{"-r", "0.025", "--kernel-radius", "nan"}, "kernel radius (--kernel-radius) must be finite"},
         {{"-r", "0.025", "--kernel-radius", "100"}, "kernel radius (--kernel-radius) must lie in [1, 16] particle radii, got '100'"},
+        {{"-r", "0.025", "--kernel-radius", "0x10"}, "kernel radius (--kernel-radius) must be a number, got '0x10'"},
         {{"-r", "0.025", "--kernel-radius", "16.0001"}, "kernel radius (--kernel-radius) must lie in [1, 16] particle radii, got '16.0001'"},
         {{"-r", "0.025", "--mode", "uniform", "--cell", "3"}, "cell (--cell) 3 must be 4/n radii for an even n from 2 to 64"},
         {{"-r", "0.025", "--mode", "uniform", "--cell", "4"}, "cell (--cell) 4 must be 4/n radii"},
