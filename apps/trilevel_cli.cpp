@@ -157,8 +157,9 @@ trilevel::Params make_params(const ReconstructArgs& a) {
     trilevel::Params p;
     p.particle_radius = positive("radius (-r)", a.radius);
     p.kernel_radius = positive("kernel radius (--kernel-radius)", a.kernel_radius);
-    if (p.kernel_radius < 1.0f || p.kernel_radius > 16.0f)  // the library's range, as a usage error with the text given
-        throw UsageError("kernel radius (--kernel-radius) must lie in [1, 16] particle radii, got '" + a.kernel_radius + "'");
+    if (p.kernel_radius < float(trilevel::kMinKernelRadius) || p.kernel_radius > float(trilevel::kMaxKernelRadius))
+        throw UsageError("kernel radius (--kernel-radius) must lie in [" + std::to_string(trilevel::kMinKernelRadius) + ", " +
+                         std::to_string(trilevel::kMaxKernelRadius) + "] particle radii, got '" + a.kernel_radius + "'");
     if (a.mode == "adaptive") p.mode = trilevel::Mode::Adaptive;
     else if (a.mode == "uniform") p.mode = trilevel::Mode::Uniform;
     else throw UsageError("--mode must be adaptive or uniform, got '" + a.mode + "'");
@@ -199,8 +200,9 @@ trilevel::Params make_params(const ReconstructArgs& a) {
     if (!a.smooth_iterations.empty()) {
         const bool digits = std::all_of(a.smooth_iterations.begin(), a.smooth_iterations.end(), [](char c) { return c >= '0' && c <= '9'; });
         const int n = digits && a.smooth_iterations.size() <= 4 ? std::stoi(a.smooth_iterations) : 0;
-        if (n < 1 || n > 1000)
-            throw UsageError("--smooth-iterations must be a whole number from 1 to 1000, got '" + a.smooth_iterations + "'");
+        if (n < 1 || n > trilevel::kMaxSmoothIterations)
+            throw UsageError("--smooth-iterations must be a whole number from 1 to " + std::to_string(trilevel::kMaxSmoothIterations) +
+                             ", got '" + a.smooth_iterations + "'");
         p.smooth_iterations = n;
     }
     return p;

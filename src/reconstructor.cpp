@@ -68,8 +68,9 @@ void require_positive(float v, const char* name, const char* why) {
 void check_params(const Params& p) {
     require_positive(p.particle_radius, "particle radius", "half the particle spacing, world units");
     require_positive(p.kernel_radius, "kernel radius", "in particle radii");
-    if (p.kernel_radius < 1.0f || p.kernel_radius > 16.0f)
-        throw Error("kernel radius must lie in [1, 16] particle radii, got " + std::to_string(p.kernel_radius));
+    if (p.kernel_radius < float(kMinKernelRadius) || p.kernel_radius > float(kMaxKernelRadius))
+        throw Error("kernel radius must lie in [" + std::to_string(kMinKernelRadius) + ", " + std::to_string(kMaxKernelRadius) +
+                    "] particle radii, got " + std::to_string(p.kernel_radius));
     if (p.mode == Mode::Uniform) {
         require_positive(p.cell, "cell size", "in particle radii");
         if (!is_uniform_cell(p.cell)) throw Error("cell size " + fmt(p.cell) + " " + kUniformCellRule);
@@ -88,8 +89,9 @@ void check_params(const Params& p) {
     if (!(std::isfinite(p.remove_components_below) && p.remove_components_below >= 0.0f))
         throw Error("remove-components-below must be finite and >= 0 (particle volumes; 0 = off), got " +
                     std::to_string(p.remove_components_below));
-    if (p.smooth_iterations < 0 || p.smooth_iterations > 1000)
-        throw Error("smooth iterations must lie in [0, 1000] (0: the default " + std::to_string(kDefaultSmoothIterations) +
+    if (p.smooth_iterations < 0 || p.smooth_iterations > kMaxSmoothIterations)
+        throw Error("smooth iterations must lie in [0, " + std::to_string(kMaxSmoothIterations) + "] (0: the default " +
+                    std::to_string(kDefaultSmoothIterations) +
                     "), got " + std::to_string(p.smooth_iterations));
     if (p.memory_limit_bytes != 0 && p.memory_limit_bytes < 4096)
         throw Error("memory limit of " + std::to_string(p.memory_limit_bytes) +

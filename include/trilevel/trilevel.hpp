@@ -122,8 +122,12 @@ struct Params {
 };
 
 /// Smoothing iterations that Params::smooth uses by default (chosen on the analytic test bodies,
-/// bench/RESULTS-smoothing.md).
+/// bench/RESULTS-smoothing.md), and the most Params::smooth_iterations takes.
 constexpr int kDefaultSmoothIterations = 12;
+constexpr int kMaxSmoothIterations = 1000;
+
+/// The range of Params::kernel_radius, in particle radii.
+constexpr int kMinKernelRadius = 1, kMaxKernelRadius = 16;
 
 /// A named quantity per particle (input) or per mesh vertex (output): velocity, density, ...
 struct Attribute {
