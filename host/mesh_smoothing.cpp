@@ -350,7 +350,9 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
     auto laplacian_step = [&](double factor) {
         weighted_move(nbr, [&](std::size_t v, std::uint32_t b, std::uint32_t e) { return factor * (neighbour_mean(b, e) - p[v]); });
     };
-    // Restores each component's volume (SmoothingSettings::keep_volume).
+    // Restores each component's volume (SmoothingSettings::keep_volume); its arrays are made once
+    // for all the restorations of a long run.
+    std::vector<double> term, gradient;
     auto restore_volumes = [&] {
         // Newton steps on the offset d of each component along its unit vertex normals n_v: the
         // volume's derivative is sum_v n_v . dV/dp_v, and dV/dp_v = (sum of v's triangles' cross
@@ -362,7 +364,8 @@ SmoothingReport smooth_mesh(Mesh& mesh, const std::vector<float>& weights, const
         // component stops once its volume is within 1e-9 of the one before smoothing (under the
         // rounding of the float positions written at the end, about 1e-7): later steps sweep only
         // the components still moving, a cavity shrunk by the Laplacian steps, say.
-        std::vector<double> term(nt), gradient(nv);
+        term.resize(nt);
+        gradient.resize(nv);
         std::vector<std::uint8_t> active(comp.count);
         for (std::size_t k = 0; k < comp.count; ++k) active[k] = std::fabs(volume0[k]) >= settings.min_volume;
         moving = active.data();

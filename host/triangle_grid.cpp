@@ -55,9 +55,10 @@ TriangleGrid::TriangleGrid(const Mesh& mesh, const std::vector<std::uint8_t>& de
     const glm::dvec3 size = glm::dvec3(high) - origin_;
     const double limit = std::max(4.0 * double(nt), double(1 << 20));
     auto cells = [&](double side) { return glm::min(glm::floor(size / side) + 1.0, glm::dvec3(double(1 << 30))); };
-    for (int growth = 0; growth < 3 && cells(cell_).x * cells(cell_).y * cells(cell_).z > limit; ++growth) cell_ *= 1.5;
+    auto count_of = [](glm::dvec3 d) { return d.x * d.y * d.z; };
+    for (int growth = 0; growth < 3 && count_of(cells(cell_)) > limit; ++growth) cell_ *= 1.5;
     glm::dvec3 dims = cells(cell_);
-    while (dims.x * dims.y * dims.z > limit) {
+    while (count_of(dims) > limit) {
         const int a = dims.x >= dims.y && dims.x >= dims.z ? 0 : dims.y >= dims.z ? 1 : 2;
         dims[a] = std::ceil(dims[a] / 2.0);
     }
