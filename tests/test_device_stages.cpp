@@ -289,10 +289,7 @@ TEST_CASE("a pile of particles within a hundredth of r is splash on the device a
     // they were neither surface nor splash, and the frame had no surface cell at all.
     auto& rt = runtime();
     const float r = 0.025f, R = 4 * r;
-    std::mt19937 rng(7);
-    std::uniform_real_distribution<float> spread(0.0f, 0.01f * r);
-    std::vector<glm::vec3> x;
-    for (int i = 0; i < 160; ++i) x.push_back(glm::vec3(1.0f) + glm::vec3(spread(rng), spread(rng), spread(rng)));
+    const std::vector<glm::vec3> x = test::pile_points(160, glm::vec3(1.0f), 0.01f * r, 7);
     const BinnedParticles b = bin_particles(rt, &x[0].x, x.size(), glm::dvec3(0.0), R);
     const ParticleClasses c = classify_particles(rt, b, r, R);
     const auto flags = read_buffer<cl_uchar>(rt, c.flags, x.size());

@@ -361,13 +361,10 @@ TEST_CASE("a pile of particles a hundredth of r across meshes as one closed blob
     // failed in adaptive mode ("clEnqueueWriteBuffer returned CL_INVALID_VALUE") and gave an empty
     // mesh at uniform r: its particles were neither surface nor splash (constants::kPileFraction).
     const float r = 0.025f;
-    std::mt19937 rng(11);
-    std::uniform_real_distribution<float> spread(0.0f, 0.01f * r);
-    std::vector<float> pile;
-    for (int i = 0; i < 160; ++i) pile.insert(pile.end(), {2.0f + spread(rng), 3.0f + spread(rng), 4.0f + spread(rng)});
+    const std::vector<glm::vec3> pile = test::pile_points(160, glm::vec3(2.0f, 3.0f, 4.0f), 0.01f * r, 11);
     for (Mode mode : {Mode::Adaptive, Mode::Uniform}) {
         INFO((mode == Mode::Adaptive ? "adaptive" : "uniform r"));
-        const Mesh m = shared_reconstructor().reconstruct(pile.data(), pile.size() / 3, params(r, mode, 1.0f));
+        const Mesh m = shared_reconstructor().reconstruct(&pile[0].x, pile.size(), params(r, mode, 1.0f));
         require_closed(m, "pile");
         REQUIRE(m.triangle_count() > 0);
         CHECK(mesh_components(m).count == 1);

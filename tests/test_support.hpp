@@ -95,4 +95,14 @@ inline std::vector<glm::vec3> lattice_points(glm::ivec3 n, glm::vec3 origin, flo
     return x;
 }
 
+/// n points in the box corner .. corner + spread (each coordinate a uniform draw from a generator
+/// seeded with `seed`): a pile of particles when spread is far under their radius.
+inline std::vector<glm::vec3> pile_points(int n, glm::vec3 corner, float spread, std::uint32_t seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> draw(0.0f, spread);
+    std::vector<glm::vec3> x;
+    for (int i = 0; i < n; ++i) x.push_back(corner + glm::vec3{draw(rng), draw(rng), draw(rng)});  // braces: drawn in order
+    return x;
+}
+
 }  // namespace trilevel::test
