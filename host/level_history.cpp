@@ -43,6 +43,15 @@ std::vector<float> LevelHistory::check_scale(const std::vector<CoarseCell>& cell
     return scale;
 }
 
+std::vector<std::uint8_t> LevelHistory::previous_levels(const std::vector<CoarseCell>& cells,
+                                                       const CoarseBase& base) const {
+    std::vector<std::uint8_t> out;
+    if (!valid_) return out;
+    out.reserve(cells.size());
+    for (const CoarseCell& c : cells) out.push_back(previous(c.coord, base));
+    return out;
+}
+
 LevelHistory::Flips LevelHistory::compare(const std::vector<CoarseCell>& cells, const CoarseBase& base) const {
     Flips f;
     if (!valid_) return f;

@@ -43,6 +43,10 @@ public:
     /// 1 for cells new to this frame. Empty without a previous frame or with h = 0.
     std::vector<float> check_scale(const std::vector<CoarseCell>& cells, const CoarseBase& base, float h) const;
 
+    /// The previous frame's level of each cell of `cells` (0 where it had no such cell); empty
+    /// without a previous frame.
+    std::vector<std::uint8_t> previous_levels(const std::vector<CoarseCell>& cells, const CoarseBase& base) const;
+
     /// Cells of `cells` that the previous frame had too, and how many of them changed level.
     struct Flips {
         std::size_t compared = 0, changed = 0;

@@ -131,7 +131,7 @@ void TriangleGrid::for_each_near(glm::dvec3 lo, glm::dvec3 hi, Local& local, Vis
         for (std::int64_t dy = 0; dy < span.y; ++dy) {
             const int z = int((w0.z + dz) % dims_.z), y = int((w0.y + dy) % dims_.y);
             const std::size_t row = index(0, y, z);
-            for (const auto [from, to] : {std::pair{w0.x, x_first_end}, std::pair{0, x_wrapped_end}}) {
+            for (const auto& [from, to] : {std::pair{w0.x, x_first_end}, std::pair{0, x_wrapped_end}}) {
                 if (from >= to) continue;
                 for (std::uint32_t i = start_[row + std::size_t(from)], e = start_[row + std::size_t(to)]; i < e; ++i) {
                     if (glm::any(glm::lessThan(entry_hi_[i], lof)) || glm::any(glm::greaterThan(entry_lo_[i], hif))) continue;

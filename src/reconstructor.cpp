@@ -28,6 +28,7 @@
 #include "io/io_common.hpp"
 #include "level2_check.hpp"
 #include "level_history.hpp"
+#include "isolated_pieces.hpp"
 #include "mesh_clip.hpp"
 #include "mesh_components.hpp"
 #include "particle_box.hpp"
@@ -644,6 +645,7 @@ void accumulate(Stats& into, const Stats& s) {
     into.surface_cells_level2 += s.surface_cells_level2;
     into.surface_cells_level3 += s.surface_cells_level3;
     into.splash_cells += s.splash_cells;
+    into.isolated_piece_cells += s.isolated_piece_cells;
     into.band_closure_cells += s.band_closure_cells;
     into.level2_check_cells += s.level2_check_cells;
     into.fine_points += s.fine_points;
@@ -797,8 +799,14 @@ Mesh Reconstructor::Impl::run_stages(const float* xyz, std::size_t n, const Para
         sc = surface_cells(rt, bins, classes, r, R, g.coarse_edge, threshold, g.forced_level);
         for (std::uint8_t f : sc.splash) s.splash_cells += f;
         if (!history.empty() && !levels_comparable(history_params, p)) history.reset();
-        if (g.forced_level == 0)
+        if (g.forced_level == 0) {
+            // Paper Fig. 1: isolated pieces (small droplets) are level 3, whatever their curvature.
+            const std::vector<std::uint8_t> previous =
+                p.level_hysteresis > 0.0f ? history.previous_levels(sc.cells, g.coarse_base) : std::vector<std::uint8_t>{};
+            s.isolated_piece_cells = promote_isolated_pieces(sc.cells, sc.splash, constants::kIsolatedPieceCells, previous,
+                                                             p.level_hysteresis);
             s.level_held = history.apply(sc.cells, sc.curvature, sc.splash, g.coarse_base, threshold, p.level_hysteresis);
+        }
         classes = ParticleClasses{};  // memory follows the surface from here on (docs/design.md §4)
     }
 

@@ -2,6 +2,8 @@
 // The kernels receive these values as build options; change them here only.
 #pragma once
 
+#include <cstddef>
+
 namespace trilevel::constants {
 
 /// Surface particle test (docs/design.md §3.1): |n_i| * R > kSurfaceGradient, with n_i the colour-field
@@ -70,6 +72,16 @@ constexpr float kBinSlotsPerParticle = 0.125f;
 /// turned many more cells level 3 around droplets near the main surface, each adding crack patches,
 /// without lowering the deviation from the uniform r mesh (bench/RESULTS.md, calibration).
 constexpr float kSplashBoxHalf = 2.0f;
+
+/// Isolated pieces: a group of at most this many coarse surface cells joined by shared faces is
+/// meshed at level 3 whatever its curvature (paper Fig. 1: "cells around the isolated pieces are
+/// always level-3"; host/isolated_pieces.hpp). A compact droplet of n particles makes a group of 8
+/// (n = 8), 26 (19), 39 (33) and 54 (81) cells, and level 2 gave it 64%, 86%, 89% and 95% of uniform
+/// r's volume: its curvature, a sum over few neighbours (paper eq. 1), stays under the threshold, and
+/// its particles have too many neighbours to be thin. 64 takes droplets of up to about 100
+/// particles; on x64 it turns 1,501 of 128,577 cells level 3 for 1.1% more triangles
+/// (docs/calibration.md).
+constexpr std::size_t kIsolatedPieceCells = 64;
 
 /// Passes of the 3x3x3 block mean over the cell curvatures before the threshold (beyond the paper;
 /// kernels/curvature.cl, smooth_cell_curvature). One pass left level regions ragged where the

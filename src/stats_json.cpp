@@ -13,6 +13,7 @@ std::string stats_to_json(const Stats& s, const Params& p) {
     j["surface_cells"] = s.surface_cells;
     j["surface_cells_by_level"] = {{"2", s.surface_cells_level2}, {"3", s.surface_cells_level3}};
     j["splash_cells"] = s.splash_cells;
+    j["isolated_piece_cells"] = s.isolated_piece_cells;
     j["band_closure_cells"] = s.band_closure_cells;
     j["level2_check_cells"] = s.level2_check_cells;
     j["fine_points"] = s.fine_points;

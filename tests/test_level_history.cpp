@@ -160,15 +160,19 @@ TEST_CASE("level history: bad hysteresis values are errors", "[levels][history][
 
 TEST_CASE("level history: hysteresis cuts the level flips of a moving scene", "[levels][history][slow]") {
     // 60 frames of the generated falling-drop: its oscillating drops sharpen and flatten, and the
-    // curvature of their cells crosses the threshold (4) back and forth.
+    // curvature of their cells crosses the threshold (4) back and forth. Its six small droplets
+    // are isolated pieces (host/isolated_pieces.hpp), level 3 while apart; most of the flips left
+    // are theirs, when one passes within a cell of the pool or the drop and joins its group (429
+    // without hysteresis, 359 with, measured; 82 and 24 before the rule, whose droplets were level
+    // 2 with 64-89% of their volume).
     Reconstructor rec;
     const SequenceFlips off = falling_drop_flips(rec, 0.0f, 60);
     const SequenceFlips on = falling_drop_flips(rec, 0.2f, 60);
     INFO("flips without hysteresis " << off.flips << ", with 0.2: " << on.flips << " of " << on.compared << " cells; held "
                                      << on.held << "; level-3 cells " << off.level3 << " / " << on.level3);
     CHECK(off.held == 0);
-    REQUIRE(off.flips >= 50);            // the scene does pop without hysteresis (66 measured)
-    CHECK(double(on.flips) < 0.5 * double(off.flips));
+    REQUIRE(off.flips >= 50);            // the scene does pop without hysteresis
+    CHECK(double(on.flips) < 0.9 * double(off.flips));
     CHECK(on.held > 0);
     // Hysteresis holds levels, it does not shift them wholesale to level 3.
     CHECK(double(on.level3) < 1.25 * double(off.level3));
@@ -184,6 +188,8 @@ TEST_CASE("level history: hysteresis holds the level-2 check's decisions too", "
     INFO("flips without hysteresis " << off.flips << ", with 0.2: " << on.flips << " of " << on.compared
                                      << " cells; level-3 cells " << off.level3 << " / " << on.level3);
     REQUIRE(off.flips >= 300);  // the check's decisions jump from frame to frame without it
-    CHECK(double(on.flips) < 0.6 * double(off.flips));
+    // 586 and 460 measured (1,748 and 762 before the isolated pieces, which took the droplets out
+    // of the check's hands; their joins with the pool are most of what is left).
+    CHECK(double(on.flips) < 0.85 * double(off.flips));
     CHECK(double(on.level3) < 1.25 * double(off.level3));
 }

@@ -180,6 +180,7 @@ struct Stats {
     std::size_t surface_cells_level2 = 0;   ///< of those, cells meshed on the 2r lattice
     std::size_t surface_cells_level3 = 0;   ///< of those, cells meshed on the r lattice
     std::size_t splash_cells = 0;           ///< cells forced to level 3 by a nearby splash or thin particle
+    std::size_t isolated_piece_cells = 0;   ///< level-2 cells made level 3 as part of an isolated piece (a small droplet)
     std::size_t band_closure_cells = 0;     ///< coarse cells added by band closure (docs/design.md §7)
     std::size_t level2_check_cells = 0;     ///< level-2 cells the level-2 check made level 3 (docs/design.md §3.2)
     std::size_t fine_points = 0;            ///< unique fine lattice points evaluated
