@@ -373,7 +373,10 @@ ClipCounts clip_mesh_to_box(Mesh& mesh, const Box& box, float particle_radius) {
             const float value = side > 0 ? box.max[axis] : box.min[axis];
             const float mag = std::fabs(value);
             const double ulp = double(std::nextafter(mag, INFINITY)) - double(mag);
-            const double snap = std::max(1e-3 * double(particle_radius), 64.0 * ulp);
+            // Two float steps keep a cut point and the ends of its edge apart once rounded; more
+            // merged cut vertices whole r apart far from the origin (64 steps: 2.5 r at 1e4 units),
+            // and the merges left non-manifold edges (tests/test_mesh_clip.cpp, "far from the origin").
+            const double snap = std::max(1e-3 * double(particle_radius), 2.0 * ulp);
             const ClipCounts c = clip_mesh_to_half_space(mesh, axis, value, side, snap, &box);
             total.cap_triangles += c.cap_triangles;
             total.cut_edges += c.cut_edges;

@@ -37,7 +37,7 @@ struct ClipCounts {
 ClipCounts clip_mesh_to_half_space(Mesh& mesh, int axis, float value, int side, double snap, const Box* faces = nullptr);
 
 /// Clips by the box's six faces (x max, x min, y max, y min, z max, z min); `particle_radius` sets
-/// the snap distance: 1e-3 r, or 64 float steps at the plane's coordinate if larger. Every vertex
+/// the snap distance: 1e-3 r, or 2 float steps at the plane's coordinate if larger. Every vertex
 /// of the result lies in the box. Triangles left flat (zero area in float) on the box's edges are
 /// then removed by edge flips. `box` must be valid (finite, min < max).
 ClipCounts clip_mesh_to_box(Mesh& mesh, const Box& box, float particle_radius);
