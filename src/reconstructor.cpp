@@ -792,6 +792,16 @@ Mesh Reconstructor::Impl::run_stages(const float* xyz, std::size_t n, const Para
         classes = classify_particles(rt, bins, r, R);
         s.surface_particles = classes.surface;
         s.splash_particles = classes.splash;
+        // A radius far too small for its particles leaves them apart: each is meshed as a droplet of
+        // its own, on the r lattice. Millions of them run for minutes before the memory for their
+        // fine points fails; this fails at once and names the likely cause.
+        const double lone_bytes = double(classes.splash) * constants::kBytesPerLoneParticle;
+        if (classes.splash > n / 2 && host > 0 && lone_bytes > host)
+            throw Error(std::to_string(classes.splash) + " of " + std::to_string(n) + " particles have fewer than " +
+                        std::to_string(constants::kSplashNeighbours) + " others within the kernel radius; meshed as a droplet each they need ~" +
+                        io::byte_size_text(std::uint64_t(lone_bytes)) + " of host memory, over the budget of " +
+                        io::byte_size_text(std::uint64_t(host)) + "; the particle radius " + fmt(user_radius) +
+                        " is probably too small for these particles (their rest spacing is 2r)");
     }
     SurfaceCells sc;
     {

@@ -67,6 +67,13 @@ constexpr float kCoarseCellsPerSurfaceParticle = 0.75f;
 /// the dam-break frames and sparse scenes grow it once (docs/calibration.md).
 constexpr float kBinSlotsPerParticle = 0.125f;
 
+/// Memory a splash particle far from every other costs when meshed as a droplet of its own, a lower
+/// bound: 64 k particles 20 r apart made 6.9 coarse cells, 556 fine points, 48 triangles and 9.6 KB
+/// of peak memory each. Frames whose particles are mostly such are refused up front when this many
+/// bytes a particle exceed the host budget (a radius far too small: 4.1 M particles ran 50 s before
+/// a buffer failed).
+constexpr double kBytesPerLoneParticle = 8192.0;
+
 /// Splash cells: surface cells overlapping x_i ± kSplashBoxHalf * r around a splash or thin particle
 /// (the same box that makes surface cells: the cells that hold its blob). Wider boxes (e.g. ±R)
 /// turned many more cells level 3 around droplets near the main surface, each adding crack patches,

@@ -133,6 +133,26 @@ TEST_CASE("a pile of 2 million particles on one point is refused and the Reconst
     require_closed(robust_reconstructor().reconstruct(spot, 1, with_radius(0.025f)), "a single particle after the pile");
 }
 
+// A radius far too small leaves every particle alone: each becomes a droplet of its own on the r
+// lattice (about 9.6 KB each). 4.1 M particles 20 r apart ran 50 s before a buffer failed with
+// advice about the cell size; such frames are now refused after the colour field, naming the radius.
+TEST_CASE("particles far apart for their radius are refused up front when their droplets exceed the budget", "[robust][memory]") {
+    const float r = 0.005f;
+    std::vector<float> apart;
+    for (const glm::vec3& p : test::lattice_points({30, 30, 30}, {0.1f, 0.2f, 0.3f}, 20 * r)) apart.insert(apart.end(), {p.x, p.y, p.z});
+    Params tight = with_radius(r);
+    tight.memory_limit_bytes = 100u << 20;  // 27 k lone particles need ~220 MB
+    int counted = 0;
+    require_param_error(apart, tight, "particle radius 0.005", "probably too small", counted);
+    require_param_error(apart, tight, "27000 of 27000 particles", "fewer than 3 others within the kernel radius", counted);
+    // Within the budget they are meshed: one droplet each.
+    const std::vector<float> few(apart.begin(), apart.begin() + 3 * 1000);
+    Stats st;
+    const Mesh m = robust_reconstructor().reconstruct(few.data(), 1000, tight, &st);
+    require_closed(m, "1000 lone particles");
+    CHECK(st.splash_particles == 1000);
+}
+
 TEST_CASE("radii outside the float kernels' band are scaled by a power of two, exactly", "[robust][params]") {
     // The same sphere with every length scaled by 2^-20 and 2^+12: r = 2.4e-8 and 102 world units.
     // R^9 under- or overflows single precision there; the pipeline runs on lengths scaled back
