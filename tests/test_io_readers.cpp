@@ -240,6 +240,19 @@ TEST_CASE("hostile and malformed particle files are rejected with one-line error
     lzma.replace(lzma.find("header_type"), 0, "compressor=\"vtkLZMADataCompressor\" ");
     require_rejected(tmp, "lzma.vtu", lzma, "unsupported compressor");
 
+    {  // header_type naming the other width: UInt32 over 64-bit headers passes every size check and
+       // reads each value 4 bytes early; the block's end against the next block's offset tells
+        const TestAttribute density{"density", 1, {1, 2, 3, 4}};
+        for (const bool with_attribute : {false, true}) {  // Points last in the appended data, or followed
+            const auto attrs = with_attribute ? std::vector<TestAttribute>{density} : std::vector<TestAttribute>{};
+            std::string u64_as_u32 = make_vtu(pts, {"raw", "appended"}, attrs);
+            u64_as_u32.replace(u64_as_u32.find("header_type=\"UInt64\""), 20, "header_type=\"UInt32\"");
+            require_rejected(tmp, "u64as32.vtu", u64_as_u32, "header_type=\"UInt32\", but the appended block at offset 0 has a 64-bit size header");
+            std::string u32_as_u64 = make_vtu(pts, {"raw u32", "appended", false, false, false, true}, attrs);
+            u32_as_u64.replace(u32_as_u64.find("header_type=\"UInt32\""), 20, "header_type=\"UInt64\"");
+            require_rejected(tmp, "u32as64.vtu", u32_as_u64, "has a 32-bit size header");
+        }
+    }
     std::string badtag = make_vtu(pts, {"raw", "appended"});
     badtag.replace(badtag.find("<AppendedData "), 14, "<AppendedDataX");
     require_rejected(tmp, "badtag.vtu", badtag, "malformed <AppendedData> tag");

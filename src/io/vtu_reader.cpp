@@ -3,6 +3,7 @@
 // zlib-compressed in blocks. Every size a header claims is checked against the bytes present
 // (or, compressed, against deflate's best ratio) before anything is allocated or inflated.
 // A small tag scanner stands in for an XML parser: only the tags we need are looked at.
+#include <algorithm>
 #include <climits>
 #include <map>
 #include <optional>
@@ -125,6 +126,8 @@ public:
     }
 
     bool big_endian() const { return big_; }
+    std::size_t header_bytes() const { return hs_; }  ///< 4 (UInt32) or 8 (UInt64)
+    bool compressed() const { return zlib_; }
 
     /// Raw (not base64) header + payload at buf, `expected` bytes of array `what`; `at` is the
     /// file offset for messages.
@@ -296,7 +299,38 @@ struct VtuContext {
     const std::string& file;
     const VtuDecoder& dec;
     const std::optional<Appended>& app;
+    std::vector<std::uint64_t> appended_offsets;  ///< of every appended DataArray, sorted
 };
+
+/// The offsets of the appended DataArrays in `xml`, sorted (unparsable ones are left out: the
+/// array's own read reports them).
+std::vector<std::uint64_t> appended_offsets(const std::string& path, std::string_view xml) {
+    std::vector<std::uint64_t> out;
+    for (auto a = find_tag(path, xml, "DataArray", 0, xml.size()); a; a = find_tag(path, xml, "DataArray", a->end, xml.size())) {
+        std::uint64_t off;
+        if (a->get("format", "ascii") == "appended" && parse_u64(a->get("offset", "0"), off)) out.push_back(off);
+    }
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
+/// A raw, uncompressed appended block is its size header and its bytes, so it ends where the next
+/// block (or the appended data) begins. A file whose header_type names the other header width
+/// passes every size check with UInt32 declared over 64-bit headers (the low word is the size)
+/// while each value is read 4 bytes early; so a block that ends exactly where the other width
+/// would put its end is an error naming the header_type.
+void check_header_type(const VtuContext& c, std::uint64_t off, std::uint64_t bytes, const std::string& at) {
+    const std::uint64_t hs = c.dec.header_bytes(), other = hs == 4 ? 8 : 4;
+    const auto next = std::upper_bound(c.appended_offsets.begin(), c.appended_offsets.end(), off);
+    std::uint64_t end = c.app->data.size();
+    if (next != c.appended_offsets.end()) end = *next;
+    else
+        while (end > off && std::isspace(static_cast<unsigned char>(c.app->data[end - 1]))) --end;
+    if (off + hs + bytes != end && off + other + bytes == end)
+        fail(c.path, at + "header_type=\"UInt" + std::to_string(8 * hs) + "\", but the appended block at offset " +
+                         std::to_string(off) + " has a " + std::to_string(8 * other) +
+                         "-bit size header (it ends where the next block begins only so); the file's header_type is wrong");
+}
 
 /// The ascii values of an array: exactly `count` numbers; non-finite ones are an Error when
 /// `coords` and finite_only (positions), kept as they are otherwise.
@@ -346,6 +380,7 @@ std::vector<float> read_data_array(const VtuContext& c, const Tag& array, std::u
         if (off >= c.app->data.size())
             fail(c.path, at + "DataArray offset " + std::to_string(off) + " lies beyond the appended data (" +
                              std::to_string(c.app->data.size()) + " bytes)");
+        if (!c.app->base64 && !c.dec.compressed()) check_header_type(c, off, bytes, at + what + ": ");
         raw = c.app->base64 ? c.dec.base64(c.app->data.substr(off), c.app->offset + off, bytes, what)
                             : c.dec.raw(c.app->data.substr(off), c.app->offset + off, bytes, what);
     } else {
@@ -386,7 +421,7 @@ ParticleSet read_vtu(const ReadRequest& r) {
     const auto root = find_tag(path, xml, "VTKFile", 0, xml.size());
     if (!root) fail(path, "not a VTK XML file: no <VTKFile> tag");
     const VtuDecoder dec(path, *root);
-    const VtuContext ctx{path, file, dec, app};
+    const VtuContext ctx{path, file, dec, app, app ? appended_offsets(path, xml) : std::vector<std::uint64_t>{}};
     AttributeSink sink(r);
     ParticleSet set;
     bool any = false;
