@@ -302,13 +302,17 @@ struct VtuContext {
     std::vector<std::uint64_t> appended_offsets;  ///< of every appended DataArray, sorted
 };
 
-/// The offsets of the appended DataArrays in `xml`, sorted (unparsable ones are left out: the
-/// array's own read reports them).
+/// The offsets of the appended DataArrays in `xml`, sorted. Unparsable offsets are left out, and
+/// the scan ends at a malformed tag: the arrays the reader needs report their own faults, and a
+/// fault in an array it skips must not fail the file.
 std::vector<std::uint64_t> appended_offsets(const std::string& path, std::string_view xml) {
     std::vector<std::uint64_t> out;
-    for (auto a = find_tag(path, xml, "DataArray", 0, xml.size()); a; a = find_tag(path, xml, "DataArray", a->end, xml.size())) {
-        std::uint64_t off;
-        if (a->get("format", "ascii") == "appended" && parse_u64(a->get("offset", "0"), off)) out.push_back(off);
+    try {
+        for (auto a = find_tag(path, xml, "DataArray", 0, xml.size()); a; a = find_tag(path, xml, "DataArray", a->end, xml.size())) {
+            std::uint64_t off;
+            if (a->get("format", "ascii") == "appended" && parse_u64(a->get("offset", "0"), off)) out.push_back(off);
+        }
+    } catch (const Error&) {
     }
     std::sort(out.begin(), out.end());
     return out;
