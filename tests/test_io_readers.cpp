@@ -252,6 +252,17 @@ TEST_CASE("hostile and malformed particle files are rejected with one-line error
             u32_as_u64.replace(u32_as_u64.find("header_type=\"UInt32\""), 20, "header_type=\"UInt64\"");
             require_rejected(tmp, "u32as64.vtu", u32_as_u64, "has a 32-bit size header");
         }
+        // Four bytes after the last block of a UInt32 file end it where a 64-bit header would, but its
+        // header read in 64 bits takes in the first value's bytes and gives another size: no mismatch
+        // (the first version of the check refused such files). A first value of +0.0 would make both
+        // readings consistent (as would a Float64 value whose low word is zero, 1.5 among them); the check
+        // then believes the block's end over the declaration.
+        std::vector<float> first_nonzero = pts;
+        first_nonzero[0] = 1.5f;
+        std::string trailing = make_vtu(first_nonzero, {"raw u32 f32", "appended", false, false, false, true, false, true});
+        trailing.replace(trailing.find("\n</AppendedData>"), 0, "abcd");
+        write_bytes(tmp.file("trailing.vtu"), trailing);
+        require_same(read_particles(tmp.file("trailing.vtu")), first_nonzero);
         // A malformed tag in a section the reader skips ends the check's scan of offsets, not the read.
         std::string skipped = make_vtu(pts, {"raw", "appended"});
         skipped.replace(skipped.find("</Piece>"), 0, "<CellData><DataArray Name=\"broken></CellData>\n");

@@ -321,15 +321,22 @@ std::vector<std::uint64_t> appended_offsets(const std::string& path, std::string
 /// A raw, uncompressed appended block is its size header and its bytes, so it ends where the next
 /// block (or the appended data) begins. A file whose header_type names the other header width
 /// passes every size check with UInt32 declared over 64-bit headers (the low word is the size)
-/// while each value is read 4 bytes early; so a block that ends exactly where the other width
-/// would put its end is an error naming the header_type.
+/// while each value is read 4 bytes early. So a block whose header, read in the other width, gives
+/// its size and which then ends exactly where the next block begins (and not so in the declared
+/// width) is an error naming the header_type. Padding or trailing bytes after a block do not
+/// match: the other width's reading includes data bytes and gives another size.
 void check_header_type(const VtuContext& c, std::uint64_t off, std::uint64_t bytes, const std::string& at) {
     const std::uint64_t hs = c.dec.header_bytes(), other = hs == 4 ? 8 : 4;
+    const std::string_view data = c.app->data;
+    if (data.size() - off < other) return;
+    const std::uint64_t other_size = other == 8 ? load<std::uint64_t>(data.data() + off, c.dec.big_endian())
+                                                : load<std::uint32_t>(data.data() + off, c.dec.big_endian());
+    if (other_size != bytes) return;
     const auto next = std::upper_bound(c.appended_offsets.begin(), c.appended_offsets.end(), off);
-    std::uint64_t end = c.app->data.size();
+    std::uint64_t end = data.size();
     if (next != c.appended_offsets.end()) end = *next;
     else
-        while (end > off && std::isspace(static_cast<unsigned char>(c.app->data[end - 1]))) --end;
+        while (end > off && std::isspace(static_cast<unsigned char>(data[end - 1]))) --end;
     if (off + hs + bytes != end && off + other + bytes == end)
         fail(c.path, at + "header_type=\"UInt" + std::to_string(8 * hs) + "\", but the appended block at offset " +
                          std::to_string(off) + " has a " + std::to_string(8 * other) +
