@@ -14,35 +14,6 @@ std::uint8_t LevelHistory::previous(glm::ivec3 c, const CoarseBase& base) const 
     return std::uint8_t(levels_.level(glm::ivec3(std::int32_t(rel[0]), std::int32_t(rel[1]), std::int32_t(rel[2]))));
 }
 
-std::size_t LevelHistory::apply(std::vector<CoarseCell>& cells, const std::vector<float>& curvature,
-                                const std::vector<std::uint8_t>& forced, const CoarseBase& base, float threshold,
-                                float h) const {
-    if (!valid_ || h <= 0.0f) return 0;
-    const float stay3 = threshold * (1.0f - h), stay2 = threshold * (1.0f + h);
-    std::size_t held = 0;
-    for (std::size_t i = 0; i < cells.size(); ++i) {
-        if (forced[i]) continue;
-        const std::uint8_t before = previous(cells[i].coord, base);
-        if (before == 0) continue;
-        const std::uint8_t level = before == 3 ? (curvature[i] >= stay3 ? 3 : 2) : (curvature[i] >= stay2 ? 3 : 2);
-        held += level != cells[i].level ? 1 : 0;
-        cells[i].level = level;
-    }
-    return held;
-}
-
-std::vector<float> LevelHistory::check_scale(const std::vector<CoarseCell>& cells, const CoarseBase& base,
-                                             float h) const {
-    std::vector<float> scale;
-    if (!valid_ || h <= 0.0f) return scale;
-    scale.reserve(cells.size());
-    for (const CoarseCell& c : cells) {
-        const std::uint8_t before = previous(c.coord, base);
-        scale.push_back(before == 3 ? 1.0f - h : before == 2 ? 1.0f + h : 1.0f);
-    }
-    return scale;
-}
-
 std::vector<std::uint8_t> LevelHistory::previous_levels(const std::vector<CoarseCell>& cells,
                                                        const CoarseBase& base) const {
     std::vector<std::uint8_t> out;
@@ -50,6 +21,29 @@ std::vector<std::uint8_t> LevelHistory::previous_levels(const std::vector<Coarse
     out.reserve(cells.size());
     for (const CoarseCell& c : cells) out.push_back(previous(c.coord, base));
     return out;
+}
+
+std::size_t LevelHistory::apply(std::vector<CoarseCell>& cells, const std::vector<float>& curvature,
+                                const std::vector<std::uint8_t>& forced, const std::vector<std::uint8_t>& previous,
+                                float threshold, float h) {
+    if (previous.empty() || h <= 0.0f) return 0;
+    const float stay3 = threshold * (1.0f - h), stay2 = threshold * (1.0f + h);
+    std::size_t held = 0;
+    for (std::size_t i = 0; i < cells.size(); ++i) {
+        if (forced[i] || previous[i] == 0) continue;
+        const std::uint8_t level = previous[i] == 3 ? (curvature[i] >= stay3 ? 3 : 2) : (curvature[i] >= stay2 ? 3 : 2);
+        held += level != cells[i].level ? 1 : 0;
+        cells[i].level = level;
+    }
+    return held;
+}
+
+std::vector<float> LevelHistory::check_scale(const std::vector<std::uint8_t>& previous, float h) {
+    std::vector<float> scale;
+    if (previous.empty() || h <= 0.0f) return scale;
+    scale.reserve(previous.size());
+    for (std::uint8_t before : previous) scale.push_back(before == 3 ? 1.0f - h : before == 2 ? 1.0f + h : 1.0f);
+    return scale;
 }
 
 LevelHistory::Flips LevelHistory::compare(const std::vector<CoarseCell>& cells, const CoarseBase& base) const {

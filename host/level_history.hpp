@@ -28,24 +28,26 @@ public:
     void reset() { levels_ = CellIndex(std::vector<CoarseCell>{}), valid_ = false; }
     bool empty() const { return !valid_; }
 
-    /// Hysteresis on the levels the curvature pass chose (paper eq. 3 against `threshold`). A cell
-    /// of the previous frame that was level 3 stays 3 while its curvature is >= threshold (1 - h);
-    /// one that was level 2 stays 2 while its curvature is < threshold (1 + h). Cells near splash
-    /// or thin particles (`forced`) keep level 3, cells new to this frame keep the level the
-    /// curvature gave them. Returns how many cells it held at a level other than that one.
-    std::size_t apply(std::vector<CoarseCell>& cells, const std::vector<float>& curvature,
-                      const std::vector<std::uint8_t>& forced, const CoarseBase& base, float threshold,
-                      float h) const;
-
-    /// Hysteresis for the level-2 check (level2_check.hpp), one factor per cell of `cells` on its
-    /// tolerance: 1 - h where the previous frame had the cell at level 3 (it stays there unless
-    /// its lattice error falls clearly below the tolerance), 1 + h where it had it at level 2,
-    /// 1 for cells new to this frame. Empty without a previous frame or with h = 0.
-    std::vector<float> check_scale(const std::vector<CoarseCell>& cells, const CoarseBase& base, float h) const;
-
     /// The previous frame's level of each cell of `cells` (0 where it had no such cell); empty
-    /// without a previous frame.
+    /// without a previous frame. Taken once a frame: apply(), check_scale() and the isolated
+    /// pieces' limit (isolated_pieces.hpp) read it.
     std::vector<std::uint8_t> previous_levels(const std::vector<CoarseCell>& cells, const CoarseBase& base) const;
+
+    /// Hysteresis on the levels the curvature pass chose (paper eq. 3 against `threshold`), with
+    /// `previous` from previous_levels(cells). A cell of the previous frame that was level 3 stays 3
+    /// while its curvature is >= threshold (1 - h); one that was level 2 stays 2 while its curvature
+    /// is < threshold (1 + h). Cells near splash or thin particles (`forced`) keep level 3, cells
+    /// new to this frame keep the level the curvature gave them. Returns how many cells it held at
+    /// a level other than that one (none with `previous` empty or h = 0).
+    static std::size_t apply(std::vector<CoarseCell>& cells, const std::vector<float>& curvature,
+                             const std::vector<std::uint8_t>& forced, const std::vector<std::uint8_t>& previous,
+                             float threshold, float h);
+
+    /// Hysteresis for the level-2 check (level2_check.hpp), one factor per cell on its tolerance,
+    /// from `previous` (previous_levels): 1 - h where the previous frame had the cell at level 3 (it
+    /// stays there unless its lattice error falls clearly below the tolerance), 1 + h where it had
+    /// it at level 2, 1 for cells new to this frame. Empty with `previous` empty or h = 0.
+    static std::vector<float> check_scale(const std::vector<std::uint8_t>& previous, float h);
 
     /// Cells of `cells` that the previous frame had too, and how many of them changed level.
     struct Flips {

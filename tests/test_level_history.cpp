@@ -70,7 +70,7 @@ TEST_CASE("level history: hysteresis keeps a cell's level within the band, force
     const std::vector<float> curvature = {3.5f, 2.9f, 4.9f, 5.0f, 3.5f, 4.5f};
     std::vector<std::uint8_t> forced = {0, 0, 0, 0, 1, 0};
     for (std::size_t i = 0; i < cells.size(); ++i) cells[i].level = curvature[i] >= 4.0f || forced[i] ? 3 : 2;
-    const std::size_t held = h.apply(cells, curvature, forced, moved, 4.0f, 0.25f);
+    const std::size_t held = LevelHistory::apply(cells, curvature, forced, h.previous_levels(cells, moved), 4.0f, 0.25f);
     CHECK(cells[0].level == 3);  // was 3, 3.5 >= 3: held (the curvature alone gives 2)
     CHECK(cells[1].level == 2);  // was 3, 2.9 < 3: drops
     CHECK(cells[2].level == 2);  // was 2, 4.9 < 5: held (alone: 3)
@@ -86,7 +86,7 @@ TEST_CASE("level history: hysteresis keeps a cell's level within the band, force
     std::vector<CoarseCell> plain = cells;
     for (std::size_t i = 0; i < plain.size(); ++i) plain[i].level = curvature[i] >= 4.0f || forced[i] ? 3 : 2;
     const std::vector<CoarseCell> expected = plain;
-    CHECK(h.apply(plain, curvature, forced, moved, 4.0f, 0.0f) == 0);
+    CHECK(LevelHistory::apply(plain, curvature, forced, h.previous_levels(plain, moved), 4.0f, 0.0f) == 0);
     for (std::size_t i = 0; i < plain.size(); ++i) CHECK(plain[i].level == expected[i].level);
     h.reset();
     CHECK(h.empty());
