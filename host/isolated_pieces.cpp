@@ -5,26 +5,10 @@
 #include <numeric>
 
 #include "core/lattice.hpp"
+#include "core/union_find.hpp"
 
 namespace trilevel {
 namespace {
-
-/// Union-find over cell positions; the smaller index is the root.
-struct Groups {
-    std::vector<std::uint32_t> parent;
-    explicit Groups(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0u); }
-    std::uint32_t find(std::uint32_t i) {
-        while (parent[i] != i) {
-            parent[i] = parent[parent[i]];  // path halving
-            i = parent[i];
-        }
-        return i;
-    }
-    void join(std::uint32_t a, std::uint32_t b) {
-        a = find(a), b = find(b);
-        if (a != b) parent[std::max(a, b)] = std::min(a, b);
-    }
-};
 
 /// A run of cells with one (y, z), sorted by x: positions [begin, end) of the sorted list.
 struct Row {
@@ -55,7 +39,7 @@ CellGroups cell_groups(const std::vector<CoarseCell>& cells) {
         if (k == 0 || at(k).y != at(k - 1).y || at(k).z != at(k - 1).z) rows.push_back({at(k).y, at(k).z, k, k + 1});
         else rows.back().end = k + 1;
 
-    Groups groups(n);
+    UnionFind groups(n);
     // Joins the cells of rows a and b that share a face: the same x.
     auto join_rows = [&](const Row& a, const Row& b) {
         std::uint32_t j = b.begin;

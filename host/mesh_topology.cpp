@@ -13,6 +13,8 @@
 #include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
 
+#include "core/union_find.hpp"
+
 namespace trilevel {
 namespace {
 
@@ -99,22 +101,14 @@ MeshTopologyReport mesh_topology_report(const Mesh& mesh) {
 
 MeshComponents mesh_components(const Mesh& mesh) {
     const std::size_t nv = mesh.vertex_count();
-    std::vector<std::uint32_t> parent(nv);
-    std::iota(parent.begin(), parent.end(), 0u);
-    auto root = [&](std::uint32_t v) {
-        while (parent[v] != v) v = parent[v] = parent[parent[v]];
-        return v;
-    };
+    UnionFind sets(nv);  // the root stays the smallest vertex
     const auto& t = mesh.triangles;
     for (std::size_t i = 0; i + 2 < t.size(); i += 3)
-        for (int k = 1; k < 3; ++k) {
-            const std::uint32_t a = root(t[i]), b = root(t[i + k]);
-            if (a != b) parent[std::max(a, b)] = std::min(a, b);  // the root stays the smallest vertex
-        }
+        for (int k = 1; k < 3; ++k) sets.join(t[i], t[i + k]);
     MeshComponents c;
     c.of_vertex.resize(nv);
     for (std::uint32_t v = 0; v < nv; ++v) {
-        const std::uint32_t r = root(v);
+        const std::uint32_t r = sets.find(v);
         c.of_vertex[v] = r == v ? std::uint32_t(c.count++) : c.of_vertex[r];  // r <= v: numbered already
     }
     return c;

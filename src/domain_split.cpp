@@ -10,6 +10,7 @@
 #include <tuple>
 #include <unordered_map>
 
+#include "core/union_find.hpp"
 #include "trilevel/trilevel.hpp"
 
 namespace trilevel {
@@ -21,21 +22,6 @@ struct CellKeyHash {
     std::size_t operator()(const CellKey& k) const {
         auto [x, y, z] = k;
         return std::size_t(x * 73856093LL) ^ std::size_t(y * 19349663LL) ^ std::size_t(z * 83492791LL);
-    }
-};
-
-/// Union-find with path halving.
-struct Components {
-    std::vector<std::uint32_t> parent;
-    explicit Components(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0u); }
-    std::uint32_t find(std::uint32_t a) {
-        while (parent[a] != a) a = parent[a] = parent[parent[a]];
-        return a;
-    }
-    void join(std::uint32_t a, std::uint32_t b) {
-        a = find(a);
-        b = find(b);
-        if (a != b) parent[std::max(a, b)] = std::min(a, b);
     }
 };
 
@@ -95,7 +81,7 @@ std::vector<std::vector<std::uint32_t>> split_domain(const float* xyz, std::size
             }
         return false;
     };
-    Components comp(keys.size());
+    UnionFind comp(keys.size());
     for (std::uint32_t c = 0; c < keys.size(); ++c) {
         auto [x, y, z] = keys[c];
         for (int dz = -2; dz <= 2; ++dz)

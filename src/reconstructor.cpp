@@ -607,12 +607,13 @@ std::uint64_t host_budget(const Params& p) {
     return avail;  // 0: unknown, no check
 }
 
-/// Fails before a large host allocation that would not fit the budget (docs/design.md §4).
-void check_host(double bytes, double budget, const std::string& what) {
+/// Fails before a large host allocation that would not fit the budget (docs/design.md §4);
+/// `advice` ends the message.
+void check_host(double bytes, double budget, const std::string& what,
+                const std::string& advice = "use a larger cell or a smaller domain") {
     if (budget > 0 && bytes > budget)
         throw Error(what + " needs ~" + io::byte_size_text(std::uint64_t(bytes)) + " of host memory, over the budget of " +
-                    io::byte_size_text(std::uint64_t(budget)) +
-                    " (--memory-limit or the available RAM); use a larger cell or a smaller domain");
+                    io::byte_size_text(std::uint64_t(budget)) + " (--memory-limit or the available RAM); " + advice);
 }
 
 /// Stage "triangulation" of a frame's cells (the caller times it): the cell and point counts, the
@@ -795,27 +796,25 @@ Mesh Reconstructor::Impl::run_stages(const float* xyz, std::size_t n, const Para
         // A radius far too small for its particles leaves them apart: each is meshed as a droplet of
         // its own, on the r lattice. Millions of them run for minutes before the memory for their
         // fine points fails; this fails at once and names the likely cause.
-        const double lone_bytes = double(classes.splash) * constants::kBytesPerLoneParticle;
-        if (classes.splash > n / 2 && host > 0 && lone_bytes > host)
-            throw Error(std::to_string(classes.splash) + " of " + std::to_string(n) + " particles have fewer than " +
-                        std::to_string(constants::kSplashNeighbours) + " others within the kernel radius; meshed as a droplet each they need ~" +
-                        io::byte_size_text(std::uint64_t(lone_bytes)) + " of host memory, over the budget of " +
-                        io::byte_size_text(std::uint64_t(host)) + "; the particle radius " + fmt(user_radius) +
-                        " is probably too small for these particles (their rest spacing is 2r)");
+        if (classes.splash > n / 2)
+            check_host(double(classes.splash) * constants::kBytesPerLoneParticle, host,
+                       "meshing " + std::to_string(classes.splash) + " of " + std::to_string(n) + " particles with fewer than " +
+                           std::to_string(constants::kSplashNeighbours) + " others within the kernel radius as a droplet each",
+                       "the particle radius " + fmt(user_radius) + " is probably too small for these particles (their rest spacing is 2r)");
     }
     SurfaceCells sc;
+    std::vector<std::uint8_t> previous;  // the previous frame's level of each cell (hysteresis; empty: none)
     {
         StageScope stage(s, "surface_cells", rt);
         sc = surface_cells(rt, bins, classes, r, R, g.coarse_edge, threshold, g.forced_level);
         for (std::uint8_t f : sc.splash) s.splash_cells += f;
         if (!history.empty() && !levels_comparable(history_params, p)) history.reset();
         if (g.forced_level == 0) {
+            if (p.level_hysteresis > 0.0f) previous = history.previous_levels(sc.cells, g.coarse_base);
             // Paper Fig. 1: isolated pieces (small droplets) are level 3, whatever their curvature.
-            const std::vector<std::uint8_t> previous =
-                p.level_hysteresis > 0.0f ? history.previous_levels(sc.cells, g.coarse_base) : std::vector<std::uint8_t>{};
             s.isolated_piece_cells = promote_isolated_pieces(sc.cells, sc.splash, constants::kIsolatedPieceCells, previous,
                                                              p.level_hysteresis);
-            s.level_held = history.apply(sc.cells, sc.curvature, sc.splash, g.coarse_base, threshold, p.level_hysteresis);
+            s.level_held = LevelHistory::apply(sc.cells, sc.curvature, sc.splash, previous, threshold, p.level_hysteresis);
         }
         classes = ParticleClasses{};  // memory follows the surface from here on (docs/design.md §4)
     }
@@ -827,7 +826,7 @@ Mesh Reconstructor::Impl::run_stages(const float* xyz, std::size_t n, const Para
         level2.tolerance = g.forced_level == 0 ? p.level2_tolerance * r : 0.0f;
         if (level2.tolerance > 0.0f) {
             for (float k : sc.curvature) level2.checked.push_back(k >= constants::kLevel2CheckCurvature);
-            level2.scale = history.check_scale(cells, g.coarse_base, p.level_hysteresis);  // empty: no history
+            level2.scale = LevelHistory::check_scale(previous, p.level_hysteresis);  // empty: no history
         }
         FinePoints points;
         // Stages "scalar_field" and "band_closure", repeated until the band is closed.
