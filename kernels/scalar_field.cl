@@ -327,8 +327,13 @@ inline bool claim_cell_points(int4 c, int coarse_steps, int claim, bool fits, vo
                               uint2 shift) {
     const uint lid = get_local_id(0), lsize = get_local_size(0);
     const int side = coarse_steps + 1;
-    const int points = side * side * side;
-    const ulong recip = lattice_reciprocal(side);
+    // A level-2 cell's points (cell_has_point) are the m^3 even offsets and, with CELL_CUBE_CENTRES,
+    // the (m - 1)^3 cube centres after them: walked directly rather than by testing every point of
+    // the cell (27 and 8 of 125 at the default radius; the loop over 125 was most of the claim).
+    const bool level2 = cell_level(c.w) == 2 && claim != CLAIM_EDGE_MIDPOINTS;
+    const int m = coarse_steps / 2 + 1, evens = m * m * m;
+    const int points = !level2 ? side * side * side : evens + ((c.w & CELL_CUBE_CENTRES) ? (m - 1) * (m - 1) * (m - 1) : 0);
+    const ulong recip = lattice_reciprocal(side), recip_even = lattice_reciprocal(m), recip_centre = lattice_reciprocal(m - 1);
     const bool creates = claim == CLAIM_INSERTED || claim == CLAIM_REFINED_EDGES;  // the points this group created
     if (!fits && !creates) {
         if (lid == 0) atomic_or(overflow, 1);
@@ -338,9 +343,11 @@ inline bool claim_cell_points(int4 c, int coarse_steps, int claim, bool fits, vo
     barrier(CLK_LOCAL_MEM_FENCE);
     for (int l = (int)lid; l < points && claim != CLAIM_REFINED_EDGES; l += (int)lsize) {  // claim the cell's pending points
         if (fits) claimed[l] = NOT_CLAIMED;
-        int3 o = lattice_offset(l, side, recip);
+        const int3 o = !level2 ? lattice_offset(l, side, recip)
+                       : l < evens ? 2 * lattice_offset(l, m, recip_even)
+                                   : 2 * lattice_offset(l - evens, m - 1, recip_centre) + 1;
         const int odd = (o.x & 1) + (o.y & 1) + (o.z & 1);
-        const bool take = claim == CLAIM_EDGE_MIDPOINTS ? odd == 1 : cell_has_point(c.w, odd);
+        const bool take = level2 || (claim == CLAIM_EDGE_MIDPOINTS ? odd == 1 : cell_has_point(c.w, odd));
         if (!take) continue;
         const int3 point = c.xyz * coarse_steps + o;
         if (claim == CLAIM_INSERTED) {  // a point is evaluated by the work-group that created it
