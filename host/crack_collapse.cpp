@@ -17,16 +17,22 @@ struct RunState {
     std::size_t first = 0, front = 0, back = 0;
 };
 
+/// Where the two pairs of a run differ in length by less than this fraction, the front goes
+/// first. Symmetric runs (an inner vertex halfway between the ends) are common on the lattice, and
+/// the float rounding of the positions decides such a tie: 1e5 r from the origin it moves them by
+/// up to 0.4% of r, which chose the other end there and gave another mesh.
+constexpr double kPairTie = 0.01;
+
 /// Collapses a run's inner vertices from the ends inwards, each into the run end beside it, the
-/// nearer pair first (the smaller move of the surface), until none is left or neither end can
-/// go. Returns false where a collapse had to wait for the serial pass (a region's worker only):
-/// the run stops there, and `s` says where to go on.
+/// clearly nearer pair first (the smaller move of the surface; kPairTie), until none is left or
+/// neither end can go. Returns false where a collapse had to wait for the serial pass (a region's
+/// worker only): the run stops there, and `s` says where to go on.
 bool collapse_run(EdgeCollapser& c, const CrackRuns& runs, RunState& s, EdgeCollapser::Worker& w) {
     using Outcome = EdgeCollapser::Outcome;
     const std::uint32_t a = runs[s.first + 1], b = runs[s.first + runs[s.first]];
     while (s.front < s.back) {
         const bool front_first = glm::distance(c.position(runs[s.front]), c.position(a)) <=
-                                 glm::distance(c.position(runs[s.back - 1]), c.position(b));
+                                 (1.0 + kPairTie) * glm::distance(c.position(runs[s.back - 1]), c.position(b));
         bool merged = false;
         for (int k = 0; k < 2 && !merged; ++k) {
             const bool front = (k == 0) == front_first;
