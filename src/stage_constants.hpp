@@ -106,9 +106,10 @@ constexpr double kMeshBytesPerFinePoint = 40.0;
 /// The level-2 check (host/level2_check.hpp) examines only level-2 cells whose cell curvature is
 /// at least this: below it the particles say flat and ordered and the level-2 lattice is trusted
 /// (on ordered frames the field ripples at the particle spacing, and checking there only promotes
-/// cells); disordered flat water sits above it, so there the check still decides
-/// (docs/calibration.md, "Levels and choosing the threshold" and "Measurements behind the stage constants").
-constexpr float kLevel2CheckCurvature = 3.0f;
+/// cells); disordered flat water sits above it, so there the check still decides. Rods and tori
+/// of radius 2r sit at 2.5-3: at 3 they kept 83-92% of uniform r's volume (docs/calibration.md,
+/// "Levels and choosing the threshold" and "Measurements behind the stage constants").
+constexpr float kLevel2CheckCurvature = 2.5f;
 
 /// Calibrated default of the curvature threshold (docs/calibration.md, "Levels and choosing the threshold"),
 /// with the level-2 check on at its default tolerance (Params::level2_tolerance, 0.32 r): cells above
