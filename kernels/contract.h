@@ -14,6 +14,8 @@
 
 // Coarse cell flags (one uint a cell slot; surface_cells.cl writes them).
 #define CELL_SPLASH 1  /* within the box of a splash or thin particle: forced level 3 */
+#define CELL_INTERIOR 2  /* holds a particle that is neither surface, splash nor thin */
+#define CELL_THIN_BODY 4  /* no cell of its 3 x 3 x 3 block holds one: a rod, sheet or droplet */
 
 // A cell's w in the int4 cell lists (x, y, z = coarse coordinates): its level in the low two bits,
 // plus CELL_CUBE_CENTRES where the level-2 check needs the centres of its level-2 cubes.

@@ -268,6 +268,19 @@ __kernel void smooth_cell_curvature(__global const uint* cells, uint count, __gl
 
 // Level per coarse cell: 3 if a splash or thin particle is near or if its smoothed curvature reaches
 // the threshold; else 2.
+// CELL_THIN_BODY on each listed cell whose 3x3x3 block (cell_blocks) has no CELL_INTERIOR cell.
+__kernel void cell_thin_bodies(__global const uint* cells, uint count, __global const uint* block,
+                               volatile __global uint* cell_flags) {
+    const uint i = get_global_id(0);
+    if (i >= count) return;
+    uint interior = 0;
+    for (uint k = 0; k < 27; ++k) {
+        const uint t = block[k * count + i];
+        if (t != NO_CELL) interior |= cell_flags[t] & CELL_INTERIOR;
+    }
+    if (!interior) atomic_or(&cell_flags[cells[i]], CELL_THIN_BODY);
+}
+
 __kernel void cell_levels(__global const uint* cells, uint count, __global const float* kappa,
                           __global const uint* cell_flags, float threshold, __global uchar* level) {
     if (get_global_id(0) >= count) return;

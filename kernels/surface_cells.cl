@@ -23,6 +23,18 @@ __kernel void mark_surface_cells(__global const float* sorted, __global const uc
                 hash_insert_counted(cell_keys, cell_capacity, pack_key((int3)(x, y, z)), stats);
 }
 
+// CELL_INTERIOR on the coarse cells that hold a particle inside the fluid (no flag). Particles come
+// in bin order, so only the first of a run in one cell looks the cell up.
+__kernel void mark_interior_cells(__global const float* sorted, __global const uchar* flags, uint n, float inv_coarse,
+                                  __global const ulong* cell_keys, ulong cell_capacity, volatile __global uint* cell_flags) {
+    const uint i = get_global_id(0);
+    if (i >= n || flags[i] != 0) return;
+    const int3 c = coarse_of(vload3(i, sorted), inv_coarse);
+    if (i > 0 && flags[i - 1] == 0 && all(coarse_of(vload3(i - 1, sorted), inv_coarse) == c)) return;
+    const long s = hash_find(cell_keys, cell_capacity, pack_key(c));
+    if (s >= 0) atomic_or(&cell_flags[s], CELL_INTERIOR);
+}
+
 __kernel void mark_splash_cells(__global const float* sorted, __global const uchar* flags, uint n,
                                 float inv_coarse, float half_box, __global const ulong* cell_keys,
                                 ulong cell_capacity, volatile __global uint* cell_flags) {

@@ -229,6 +229,7 @@ void cell_curvature_levels(OpenCLRuntime& rt, const BinnedParticles& b, Particle
         if (pass + 1 < constants::kCurvatureSmoothingPasses) std::swap(raw, cell_kappa);
     }
     kernels::cell_levels(rt, Items{count}, morton_cells, count, cell_kappa, cell_flags, threshold, level);
+    kernels::cell_thin_bodies(rt, Items{count}, morton_cells, count, block, cell_flags);
 }
 
 }  // namespace
@@ -248,6 +249,8 @@ SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& b, Particle
     rt.queue().enqueueFillBuffer(flags, cl_uint{0}, 0, cap * sizeof(cl_uint));
     kernels::mark_splash_cells(rt, Items{n}, b.sorted, c.flags, n, inv_coarse, constants::kSplashBoxHalf * r, cells.keys,
                                cl_ulong(cells.capacity), flags);
+    if (forced_level == 0)
+        kernels::mark_interior_cells(rt, Items{n}, b.sorted, c.flags, n, inv_coarse, cells.keys, cl_ulong(cells.capacity), flags);
 
     // The cells' slots in key order (the output's) and in Morton order (the per-cell passes'). The
     // keys are read through a map (no host copy on CPU devices); the kernels below only read them.
@@ -280,6 +283,7 @@ SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& b, Particle
     for (std::size_t s : slots) {
         out.cells.push_back({lattice::unpack(keys[s]), std::uint8_t(forced_level ? forced_level : (*lv)[s])});
         out.splash.push_back(std::uint8_t((fl[s] & contract::kCellSplash) != 0));
+        out.thin_body.push_back(std::uint8_t((fl[s] & contract::kCellThinBody) != 0));
         out.curvature.push_back(forced_level ? 0.0f : (*kv)[s]);
     }
     rt.finish();

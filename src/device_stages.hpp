@@ -69,6 +69,7 @@ struct SurfaceCells {
     std::vector<CoarseCell> cells;
     std::vector<float> curvature;      ///< per cell (adaptive mode; paper eq. 3)
     std::vector<std::uint8_t> splash;  ///< per cell: within R of a splash particle
+    std::vector<std::uint8_t> thin_body;  ///< per cell: no particle inside the fluid in its 3x3x3 block (adaptive mode)
     std::vector<float> particle_kappa; ///< per sorted particle (adaptive mode, when asked for; paper eq. 1)
 };
 /// `forced_level` 2 or 3 assigns that level to every cell (uniform modes, no curvature pass).

@@ -16,6 +16,7 @@ constexpr std::uint8_t kFlagThin = FLAG_THIN;
 
 /// Coarse cell flags (one uint a cell slot).
 constexpr std::uint32_t kCellSplash = CELL_SPLASH;
+constexpr std::uint32_t kCellThinBody = CELL_THIN_BODY;
 
 /// The w of a cell in the device's int4 cell lists: level | kCellCubeCentres.
 constexpr std::int32_t kCellLevelMask = CELL_LEVEL_MASK;

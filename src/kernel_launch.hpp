@@ -101,6 +101,8 @@ inline constexpr Kernel<Buf, Buf, cl_uint, cl_uint, float, Buf, cl_ulong, Buf, f
 inline constexpr Kernel<Buf, Buf, cl_uint, float, float, Buf, cl_ulong, Buf> mark_surface_cells{"mark_surface_cells"};
 //   sorted flags n inv_coarse half_box cell_keys cell_capacity cell_flags
 inline constexpr Kernel<Buf, Buf, cl_uint, float, float, Buf, cl_ulong, Buf> mark_splash_cells{"mark_splash_cells"};
+//   sorted flags n inv_coarse cell_keys cell_capacity cell_flags
+inline constexpr Kernel<Buf, Buf, cl_uint, float, Buf, cl_ulong, Buf> mark_interior_cells{"mark_interior_cells"};
 
 // ---- curvature.cl (stage 4) --------------------------------------------------------------------
 //   gradient_to_normal n
@@ -118,6 +120,8 @@ inline constexpr Kernel<Buf, cl_uint, Buf, Buf, Buf, Buf, Buf> cell_curvature{"c
 inline constexpr Kernel<Buf, cl_uint, Buf, Buf, Buf> smooth_cell_curvature{"smooth_cell_curvature"};
 //   cells count kappa cell_flags threshold level
 inline constexpr Kernel<Buf, cl_uint, Buf, Buf, float, Buf> cell_levels{"cell_levels"};
+//   cells count block cell_flags
+inline constexpr Kernel<Buf, cl_uint, Buf, Buf> cell_thin_bodies{"cell_thin_bodies"};
 
 // ---- hash_table.cl -----------------------------------------------------------------------------
 //   old_keys old_values old_capacity keys values capacity shift stats

@@ -104,12 +104,19 @@ static_assert(kCurvatureSmoothingPasses >= 1, "the last pass writes the cell cur
 constexpr double kMeshBytesPerFinePoint = 40.0;
 
 /// The level-2 check (host/level2_check.hpp) examines only level-2 cells whose cell curvature is
-/// at least this: below it the particles say flat and ordered and the level-2 lattice is trusted
-/// (on ordered frames the field ripples at the particle spacing, and checking there only promotes
-/// cells); disordered flat water sits above it, so there the check still decides. Rods and tori
-/// of radius 2r sit at 2.5-3: at 3 they kept 83-92% of uniform r's volume (docs/calibration.md,
-/// "Levels and choosing the threshold" and "Measurements behind the stage constants").
-constexpr float kLevel2CheckCurvature = 2.5f;
+/// at least this, or that belong to a thin body (kThinBodyTolerance): below it the particles say
+/// flat and ordered and the level-2 lattice is trusted (on ordered frames the field ripples at the
+/// particle spacing, and checking there only promotes cells); disordered flat water sits above it,
+/// so there the check still decides (docs/calibration.md, "Levels and choosing the threshold" and
+/// "Measurements behind the stage constants").
+constexpr float kLevel2CheckCurvature = 3.0f;
+
+/// Cells of a thin body, none of whose 3x3x3 block holds a particle inside the fluid (a rod,
+/// torus or sheet a few particles thick, a droplet), are checked whatever their curvature, at this
+/// fraction of the level-2 tolerance. A 2r lattice thins such a body everywhere by a little under
+/// the tolerance: rods and tori of radius 2r (cell curvature 2.5-3) kept 78-99% of uniform r's
+/// volume with p99 deviations up to 1.1 r; with the rule 99.3-100% at p99 0.2 r (docs/calibration.md).
+constexpr float kThinBodyTolerance = 0.6f;
 
 /// Calibrated default of the curvature threshold (docs/calibration.md, "Levels and choosing the threshold"),
 /// with the level-2 check on at its default tolerance (Params::level2_tolerance, 0.32 r): cells above

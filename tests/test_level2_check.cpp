@@ -153,8 +153,9 @@ std::vector<float> fill(float r, glm::vec3 half, glm::vec3 shift, float jitter, 
 
 TEST_CASE("thin rods and tori keep the volume uniform r gives them", "[level2][e2e]") {
     // A rod and a torus of radius 2r, one torus jittered a quarter spacing, each on eight lattice
-    // shifts. Their cells' curvature is about 2.5-3: at the former gate of 3 most went unchecked
-    // and kept 0.938 of uniform r's volume on average (0.81 at worst); now 0.976 (0.90).
+    // shifts. Their cells' curvature is about 2.5-3, under the check's gate: they kept 0.938 of
+    // uniform r's volume on average (0.81 at worst). As thin bodies (no particle inside the fluid
+    // near them, constants::kThinBodyTolerance) they are checked at a tighter tolerance.
     const float r = 0.025f;
     const auto rod = [r](glm::vec3 p) {  // 120r long, along x
         return std::max(std::hypot(p.y, p.z) - 2.0f * r, std::abs(p.x) - 60.0f * r);
@@ -190,6 +191,6 @@ TEST_CASE("thin rods and tori keep the volume uniform r gives them", "[level2][e
         }
     }
     INFO("mean " << sum / bodies << ", worst " << worst);
-    CHECK(sum / bodies > 0.965);
-    CHECK(worst > 0.88);
+    CHECK(sum / bodies > 0.985);
+    CHECK(worst > 0.96);
 }
