@@ -374,6 +374,7 @@ TEST_CASE("curvature, surface cells and levels match the C++ reference", "[devic
         for (std::size_t i = 0; i < ref.cells.size(); ++i) {
             REQUIRE(dev.cells[i].coord == ref.cells[i].coord);
             REQUIRE(dev.splash[i] == ref.splash[i]);
+            REQUIRE(dev.thin_body[i] == ref.thin_body[i]);
             if (forced) {
                 REQUIRE(dev.cells[i].level == forced);
             } else {

@@ -164,7 +164,10 @@ SurfaceCells surface_cells(const std::vector<glm::vec3>& x, const ParticleFlags&
     std::vector<std::uint64_t> keys;
     std::unordered_set<std::uint64_t> splash_keys;
     std::unordered_map<std::uint64_t, CellKappa> per_cell;
+    std::unordered_set<std::uint64_t> interior;  // cells holding a particle without a flag
     for (std::size_t i = 0; i < x.size(); ++i) {
+        if (!flags.surface[i] && !flags.splash[i] && !flags.thin[i])
+            interior.insert(lattice::pack(coarse_of(x[i] - origin, inv_edge)));
         if (!flags.surface[i] && !flags.thin[i]) continue;
         for_each_cell(cells_overlapping(x[i], origin, constants::kSurfaceBoxHalf * r, inv_edge),
                       [&](std::uint64_t k) { keys.push_back(k); });
@@ -184,6 +187,7 @@ SurfaceCells surface_cells(const std::vector<glm::vec3>& x, const ParticleFlags&
     out.cells.resize(keys.size());
     out.curvature.resize(keys.size());
     out.splash.resize(keys.size());
+    out.thin_body.resize(keys.size());
     std::unordered_map<std::uint64_t, float> smoothed;  // eq. 3 (or the neighbour fallback) per cell
     for (std::uint64_t k : keys) smoothed[k] = cell_curvature(lattice::unpack(k), per_cell);
     // Means over the surface cells of the 3x3x3 block (kernels/curvature.cl, smooth_cell_curvature).
@@ -201,6 +205,16 @@ SurfaceCells surface_cells(const std::vector<glm::vec3>& x, const ParticleFlags&
         const glm::ivec3 coord = lattice::unpack(keys[c]);
         out.curvature[c] = smoothed[keys[c]];
         out.splash[c] = splash_keys.count(keys[c]) != 0;
+        bool inside = false;  // a surface cell of the 3x3x3 block holds an interior particle
+        for (int dz = -1; dz <= 1; ++dz)
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx) {
+                    const glm::ivec3 q = coord + glm::ivec3(dx, dy, dz);
+                    if (glm::all(glm::greaterThanEqual(q, glm::ivec3(0))) &&
+                        std::binary_search(keys.begin(), keys.end(), lattice::pack(q)) && interior.count(lattice::pack(q)))
+                        inside = true;
+                }
+        out.thin_body[c] = forced_level == 0 && !inside;
         const bool fine = out.splash[c] || out.curvature[c] >= threshold;
         out.cells[c].coord = coord;
         out.cells[c].level = std::uint8_t(forced_level == 2 || forced_level == 3 ? forced_level : (fine ? 3 : 2));

@@ -54,6 +54,8 @@ struct SurfaceCells {
     std::vector<float> curvature;       ///< per cell: paper eq. 3 (or the 26-neighbour fallback),
                                         ///< averaged over the surface cells of the 3x3x3 block
     std::vector<std::uint8_t> splash;   ///< per cell: inside x_i +- R of a splash particle
+    std::vector<std::uint8_t> thin_body;  ///< per cell (adaptive): no cell of its 3x3x3 block holds a
+                                          ///< particle without a flag (surface, splash, thin)
 };
 
 /// Coarse cells of edge kCoarseCell * r, coord = floor((x - origin) * inv_edge), which must be >= 0,
@@ -64,7 +66,7 @@ struct SurfaceCells {
 /// x_i +- kSplashBoxHalf*r of a splash or thin particle. Thin particles without surface gradient
 /// (sheets) add the cells of their box too, as surface particles do. The level uses the cell curvature averaged over the 3x3x3 block.
 /// forced_level: 0 = adaptive (level 3 if splash or curvature >= threshold, else 2); 2 or 3 =
-/// uniform mode, every cell gets that level.
+/// uniform mode, every cell gets that level (and no cell is a thin body).
 SurfaceCells surface_cells(const std::vector<glm::vec3>& x, const ParticleFlags& flags,
                            const std::vector<float>& kappa, glm::vec3 origin, float r, float R,
                            float threshold, int forced_level = 0);
