@@ -2,7 +2,8 @@
 // and the level of each cell. Cell sums use 64-bit fixed-point atomics so the mean does not depend
 // on the order in which work-items add (docs/design.md §6).
 
-// Uses: contract.h (KAPPA_FIXED, FLAG_SURFACE), hash_table.cl, particle_binning.cl, surface_cells.cl (coarse_of).
+// Uses: contract.h (KAPPA_FIXED, FLAG_SURFACE, CELL_SPLASH, CELL_INTERIOR, CELL_THIN_BODY), hash_table.cl,
+// particle_binning.cl, surface_cells.cl (coarse_of).
 
 inline float3 outward_normal(float3 gradient) {
     return length(gradient) > 0.0f ? -normalize(gradient) : (float3)(0.0f);
@@ -266,9 +267,9 @@ __kernel void smooth_cell_curvature(__global const uint* cells, uint count, __gl
     out[s] = sum / n;
 }
 
-// Level per coarse cell: 3 if a splash or thin particle is near or if its smoothed curvature reaches
-// the threshold; else 2.
-// CELL_THIN_BODY on each listed cell whose 3x3x3 block (cell_blocks) has no CELL_INTERIOR cell.
+// CELL_THIN_BODY on each listed cell whose 3x3x3 block (cell_blocks) has no CELL_INTERIOR cell: a
+// rod, torus or sheet a few particles thick, a droplet (the level-2 check takes it whatever its
+// curvature, constants::kThinBodyTolerance).
 __kernel void cell_thin_bodies(__global const uint* cells, uint count, __global const uint* block,
                                volatile __global uint* cell_flags) {
     const uint i = get_global_id(0);
@@ -281,6 +282,8 @@ __kernel void cell_thin_bodies(__global const uint* cells, uint count, __global 
     if (!interior) atomic_or(&cell_flags[cells[i]], CELL_THIN_BODY);
 }
 
+// Level per coarse cell: 3 if a splash or thin particle is near or if its smoothed curvature reaches
+// the threshold; else 2.
 __kernel void cell_levels(__global const uint* cells, uint count, __global const float* kappa,
                           __global const uint* cell_flags, float threshold, __global uchar* level) {
     if (get_global_id(0) >= count) return;

@@ -3,7 +3,7 @@
 // surface particle); cells within R of a splash particle become splash cells (forced level 3).
 // Coarse cells are keys in a hash, never a dense box (docs/design.md §4).
 
-// Uses: contract.h (CELL_SPLASH, FLAG_*), hash_table.cl.
+// Uses: contract.h (CELL_SPLASH, CELL_INTERIOR, FLAG_*), hash_table.cl.
 
 inline int3 coarse_of(float3 p, float inv_coarse) {
     return convert_int3_rtn(p * inv_coarse);
