@@ -29,9 +29,8 @@ CellGroups cell_groups(const std::vector<CoarseCell>& cells) {
     // ms for x64's 128 k cells, this under 5).
     std::vector<std::uint32_t> order(n);
     std::iota(order.begin(), order.end(), 0u);
-    auto key = [&](std::uint32_t i) { return lattice::pack(cells[i].coord); };
-    if (!std::is_sorted(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return key(a) < key(b); }))
-        std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return key(a) < key(b); });
+    auto by_key = [&](std::uint32_t a, std::uint32_t b) { return lattice::pack(cells[a].coord) < lattice::pack(cells[b].coord); };
+    if (!std::is_sorted(order.begin(), order.end(), by_key)) std::sort(order.begin(), order.end(), by_key);
     auto at = [&](std::uint32_t k) -> const glm::ivec3& { return cells[order[k]].coord; };
 
     std::vector<Row> rows;

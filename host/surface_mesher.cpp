@@ -7,10 +7,10 @@
 // phase 1 on all threads. Phase 3, parallel: rewrite triangle indices.
 #include "surface_mesher.hpp"
 
-#include <cmath>
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <type_traits>

@@ -329,7 +329,7 @@ inline bool claim_cell_points(int4 c, int coarse_steps, int claim, bool fits, vo
     const int side = coarse_steps + 1;
     // A level-2 cell's points (cell_has_point) are the m^3 even offsets and, with CELL_CUBE_CENTRES,
     // the (m - 1)^3 cube centres after them: walked directly rather than by testing every point of
-    // the cell (27 and 8 of 125 at the default radius; the loop over 125 was most of the claim).
+    // the cell (27 and 8 of 125 at the default radius: the field pass 0.935x at x64).
     const bool level2 = cell_level(c.w) == 2 && claim != CLAIM_EDGE_MIDPOINTS;
     const int m = coarse_steps / 2 + 1, evens = m * m * m;
     const int points = !level2 ? side * side * side : evens + ((c.w & CELL_CUBE_CENTRES) ? (m - 1) * (m - 1) * (m - 1) : 0);

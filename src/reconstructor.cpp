@@ -825,19 +825,17 @@ Mesh Reconstructor::Impl::run_stages(const float* xyz, std::size_t n, const Para
         Level2Check level2;  // the check's second opinion, where the curvature is not clearly flat
         level2.tolerance = g.forced_level == 0 ? p.level2_tolerance * r : 0.0f;
         if (level2.tolerance > 0.0f) {
+            level2.scale = LevelHistory::check_scale(previous, p.level_hysteresis);  // empty: no history
             // Cells of thin bodies (rods, sheets, droplets: no particle inside the fluid in their
             // 3x3x3 block) are checked whatever their curvature, at a tighter tolerance. Over a
             // sequence a cell that was level 3 is checked so too: a droplet touching the pool
             // would otherwise drop out of the rule and flip back to level 2.
-            std::vector<std::uint8_t> thin = sc.thin_body;
-            for (std::size_t i = 0; i < previous.size(); ++i) thin[i] |= previous[i] == 3;
-            for (std::size_t i = 0; i < sc.curvature.size(); ++i)
-                level2.checked.push_back(sc.curvature[i] >= constants::kLevel2CheckCurvature || thin[i]);
-            level2.scale = LevelHistory::check_scale(previous, p.level_hysteresis);  // empty: no history
-            if (std::count(thin.begin(), thin.end(), 1) > 0) {
-                if (level2.scale.empty()) level2.scale.assign(sc.curvature.size(), 1.0f);
-                for (std::size_t i = 0; i < sc.curvature.size(); ++i)
-                    if (thin[i]) level2.scale[i] *= constants::kThinBodyTolerance;
+            for (std::size_t i = 0; i < sc.cells.size(); ++i) {
+                const bool thin = sc.thin_body[i] || (!previous.empty() && previous[i] == 3);
+                level2.checked.push_back(thin || sc.curvature[i] >= constants::kLevel2CheckCurvature);
+                if (!thin) continue;
+                if (level2.scale.empty()) level2.scale.assign(sc.cells.size(), 1.0f);
+                level2.scale[i] *= constants::kThinBodyTolerance;
             }
         }
         FinePoints points;
