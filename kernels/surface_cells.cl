@@ -23,25 +23,28 @@ __kernel void mark_surface_cells(__global const float* sorted, __global const uc
                 hash_insert_counted(cell_keys, cell_capacity, pack_key((int3)(x, y, z)), stats);
 }
 
-// CELL_INTERIOR on the coarse cells that hold a particle inside the fluid (no flag). Particles come
-// in bin order, so only the first of a run in one cell looks the cell up.
-__kernel void mark_interior_cells(__global const float* sorted, __global const uchar* flags, uint n, float inv_coarse,
-                                  __global const ulong* cell_keys, ulong cell_capacity, volatile __global uint* cell_flags) {
+// The surface cells' flags from the particles, in one pass: CELL_SPLASH on the cells overlapping
+// x +- half_box of a splash or thin particle (forced level 3), and with `interior` (adaptive mode)
+// CELL_INTERIOR on the cell that holds a particle inside the fluid (no flag; curvature.cl,
+// cell_thin_bodies). Particles come in bin order, so only the first of a run of those in one cell
+// looks the cell up.
+__kernel void mark_cell_flags(__global const float* sorted, __global const uchar* flags, uint n, float inv_coarse,
+                              float half_box, __global const ulong* cell_keys, ulong cell_capacity,
+                              volatile __global uint* cell_flags, uint interior) {
     const uint i = get_global_id(0);
-    if (i >= n || flags[i] != 0) return;
-    const int3 c = coarse_of(vload3(i, sorted), inv_coarse);
-    if (i > 0 && flags[i - 1] == 0 && all(coarse_of(vload3(i - 1, sorted), inv_coarse) == c)) return;
-    const long s = hash_find(cell_keys, cell_capacity, pack_key(c));
-    if (s >= 0) atomic_or(&cell_flags[s], CELL_INTERIOR);
-}
-
-__kernel void mark_splash_cells(__global const float* sorted, __global const uchar* flags, uint n,
-                                float inv_coarse, float half_box, __global const ulong* cell_keys,
-                                ulong cell_capacity, volatile __global uint* cell_flags) {
-    uint i = get_global_id(0);
-    if (i >= n || (flags[i] & (FLAG_SPLASH | FLAG_THIN)) == 0) return;
-    int3 lo = coarse_of(vload3(i, sorted) - half_box, inv_coarse);
-    int3 hi = coarse_of(vload3(i, sorted) + half_box, inv_coarse);
+    if (i >= n) return;
+    const uchar f = flags[i];
+    const float3 x = vload3(i, sorted);
+    if (f == 0) {
+        if (!interior) return;
+        const int3 c = coarse_of(x, inv_coarse);
+        if (i > 0 && flags[i - 1] == 0 && all(coarse_of(vload3(i - 1, sorted), inv_coarse) == c)) return;
+        const long s = hash_find(cell_keys, cell_capacity, pack_key(c));
+        if (s >= 0) atomic_or(&cell_flags[s], CELL_INTERIOR);
+        return;
+    }
+    if ((f & (FLAG_SPLASH | FLAG_THIN)) == 0) return;
+    const int3 lo = coarse_of(x - half_box, inv_coarse), hi = coarse_of(x + half_box, inv_coarse);
     for (int z = lo.z; z <= hi.z; ++z)
         for (int y = lo.y; y <= hi.y; ++y)
             for (int x = lo.x; x <= hi.x; ++x) {

@@ -247,10 +247,8 @@ SurfaceCells surface_cells(OpenCLRuntime& rt, const BinnedParticles& b, Particle
     const std::size_t cap = cells.capacity;
     DeviceBuffer flags = rt.buffer(cap * sizeof(cl_uint), "coarse cell flags");
     rt.queue().enqueueFillBuffer(flags, cl_uint{0}, 0, cap * sizeof(cl_uint));
-    kernels::mark_splash_cells(rt, Items{n}, b.sorted, c.flags, n, inv_coarse, constants::kSplashBoxHalf * r, cells.keys,
-                               cl_ulong(cells.capacity), flags);
-    if (forced_level == 0)
-        kernels::mark_interior_cells(rt, Items{n}, b.sorted, c.flags, n, inv_coarse, cells.keys, cl_ulong(cells.capacity), flags);
+    kernels::mark_cell_flags(rt, Items{n}, b.sorted, c.flags, n, inv_coarse, constants::kSplashBoxHalf * r, cells.keys,
+                             cl_ulong(cells.capacity), flags, cl_uint(forced_level == 0));
 
     // The cells' slots in key order (the output's) and in Morton order (the per-cell passes'). The
     // keys are read through a map (no host copy on CPU devices); the kernels below only read them.

@@ -99,10 +99,8 @@ inline constexpr Kernel<Buf, Buf, cl_uint, cl_uint, float, Buf, cl_ulong, Buf, f
 // ---- surface_cells.cl (stage 3) ----------------------------------------------------------------
 //   sorted flags n inv_coarse half_box cell_keys cell_capacity stats
 inline constexpr Kernel<Buf, Buf, cl_uint, float, float, Buf, cl_ulong, Buf> mark_surface_cells{"mark_surface_cells"};
-//   sorted flags n inv_coarse half_box cell_keys cell_capacity cell_flags
-inline constexpr Kernel<Buf, Buf, cl_uint, float, float, Buf, cl_ulong, Buf> mark_splash_cells{"mark_splash_cells"};
-//   sorted flags n inv_coarse cell_keys cell_capacity cell_flags
-inline constexpr Kernel<Buf, Buf, cl_uint, float, Buf, cl_ulong, Buf> mark_interior_cells{"mark_interior_cells"};
+//   sorted flags n inv_coarse half_box cell_keys cell_capacity cell_flags interior
+inline constexpr Kernel<Buf, Buf, cl_uint, float, float, Buf, cl_ulong, Buf, cl_uint> mark_cell_flags{"mark_cell_flags"};
 
 // ---- curvature.cl (stage 4) --------------------------------------------------------------------
 //   gradient_to_normal n
